@@ -1,0 +1,238 @@
+"""MJCF builder for the MIT Cheetah footpad test rig (Chuah & Kim, LSANN paper, Sec. III-A).
+
+The rig: a force/torque plate welded to the world, a 3-axis CNC positioner (three slide joints
+with stiff position servos, not mocap: friction needs real velocities), and the footpad carried
+by the CNC. The polyurethane layer is a grid of "bristle" elements: each element is a small body
+on three slide joints whose springs carry the rubber's local stiffness, ending in a sphere that
+makes stiff frictional contact with the plate. MuJoCo then resolves stick, partial slip and full
+slip element by element. Stresses inside the rubber are computed after the physics from the
+element forces (see `sim.layer`).
+
+Frames (SI units throughout): the plate's top face is the plane z = 0 and carries the F/T site.
+The carriage origin is the centre of the pad's contact face; CNC joint positions are the
+carriage displacement, with z = 0 the first touch of a flat pad, negative z pressing down.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import mujoco
+import numpy as np
+
+# Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
+AXES = ("x", "y", "z")
+
+
+@dataclasses.dataclass(frozen=True)
+class FootpadParams:
+  """Physical parameters of the footpad and its rig.
+
+  Attributes:
+    grid: number of bristle elements along (X, Y). 6x8 keeps elements near square on the
+      32x39 mm board and runs at ~5-7k steps/s (DESIGN.md, measured).
+    footprint: pad size along (X, Y), m. The paper's PCB is 32 mm x 39 mm (Sec. II-A).
+    thickness: rubber thickness between PCB and contact face, m. Assumed 6 mm (DESIGN.md):
+      with E below it gives ~152 kN/m, i.e. ~228 N at 1.5 mm, the paper's ~221 N Z range.
+    youngs_modulus: Vytaflex 20 (Shore 20A), Pa; 0.73 MPa from Gent's relation.
+    poisson_ratio: polyurethane rubber is nearly incompressible; 0.49.
+    friction: Coulomb coefficient pad/plate. 0.8-1 is needed for the paper's ~220 N shear
+      ranges (DESIGN.md, measured); 0.9 by default.
+    crown_radius: radius of a spherical crown of the contact face, m; inf for a flat pad.
+    density: rubber density, kg/m^3 (Vytaflex 20: specific gravity ~1.0, Smooth-On data);
+      sets the lumped mass of each element's rubber column.
+    damping_ratio: damping ratio of each element's springs about its own lumped mass.
+      Assumed 0.3, of the order of the loss factor of soft polyurethane at low frequency.
+    die_x: X positions of the two die columns, m (assumed +-6.5 mm).
+    die_y: Y positions of the three die rows, m (assumed -11/0/+11 mm).
+    die_depth: depth of the dies below the contact face, m (assumed 5 mm: 1 mm above the PCB).
+    tip_radius: radius of the contact sphere ending each element, m.
+    timestep: simulation step, s; one step per 1 kHz sample (paper Sec. III-A).
+    cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at the 228 N peak.
+    cnc_mass: moving mass of each CNC axis (as joint armature), kg.
+  """
+
+  grid: tuple[int, int] = (6, 8)
+  footprint: tuple[float, float] = (0.032, 0.039)
+  thickness: float = 0.006
+  youngs_modulus: float = 0.73e6
+  poisson_ratio: float = 0.49
+  friction: float = 0.9
+  crown_radius: float = math.inf
+  density: float = 1000.0
+  damping_ratio: float = 0.3
+  die_x: tuple[float, ...] = (-0.0065, 0.0065)
+  die_y: tuple[float, ...] = (-0.011, 0.0, 0.011)
+  die_depth: float = 0.005
+  tip_radius: float = 0.0005
+  timestep: float = 0.001
+  cnc_kp: float = 2e7
+  cnc_mass: float = 1.0
+
+  @property
+  def shear_modulus(self) -> float:
+    return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
+
+  @property
+  def num_elements(self) -> int:
+    return self.grid[0] * self.grid[1]
+
+  @property
+  def element_size(self) -> tuple[float, float]:
+    return (self.footprint[0] / self.grid[0], self.footprint[1] / self.grid[1])
+
+  def element_centres(self) -> np.ndarray:
+    """(num_elements, 2) element centres in the pad plane, m, row-major in (ix, iy)."""
+    dx, dy = self.element_size
+    xs = (np.arange(self.grid[0]) + 0.5) * dx - self.footprint[0] / 2
+    ys = (np.arange(self.grid[1]) + 0.5) * dy - self.footprint[1] / 2
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+  def die_positions(self) -> np.ndarray:
+    """(num_dies, 3) die centres in the carriage frame, m; dies ordered column-major (x, y)."""
+    return np.array([(x, y, self.die_depth) for x in self.die_x for y in self.die_y])
+
+  def crown_sag(self) -> np.ndarray:
+    """(num_elements,) height of each element's contact face above the flat plane, m."""
+    if math.isinf(self.crown_radius):
+      return np.zeros(self.num_elements)
+    r2 = np.sum(self.element_centres() ** 2, axis=1)
+    return self.crown_radius - np.sqrt(self.crown_radius**2 - r2)
+
+  def element_stiffness(self) -> np.ndarray:
+    """(num_elements, 3) spring rates (kx, ky, kz) of each element, N/m.
+
+    A column of rubber of area A and local thickness h: normal k = E*A/h, shear k = G*A/h.
+    The crown thins the rubber towards the edges.
+    """
+    dx, dy = self.element_size
+    h_local = self.thickness - self.crown_sag()
+    kn = self.youngs_modulus * dx * dy / h_local
+    kt = self.shear_modulus * dx * dy / h_local
+    return np.stack([kt, kt, kn], axis=1)
+
+  def validate(self) -> None:
+    """Raise ValueError naming the first parameter outside its allowed range."""
+    def need(ok: bool, name: str, allowed: str, value) -> None:
+      if not ok:
+        raise ValueError(f"footpad parameter {name}={value!r} is out of range: allowed {allowed}")
+
+    need(len(self.grid) == 2 and all(int(g) == g and 2 <= g <= 20 for g in self.grid),
+         "grid", "two integers in [2, 20]", self.grid)
+    need(all(0.005 <= f <= 0.2 for f in self.footprint), "footprint", "[0.005, 0.2] m each",
+         self.footprint)
+    need(0.001 <= self.thickness <= 0.05, "thickness", "[0.001, 0.05] m", self.thickness)
+    need(1e4 <= self.youngs_modulus <= 1e8, "youngs_modulus", "[1e4, 1e8] Pa",
+         self.youngs_modulus)
+    need(0.0 <= self.poisson_ratio <= 0.495, "poisson_ratio", "[0, 0.495]", self.poisson_ratio)
+    need(self.friction > 0 and math.isfinite(self.friction), "friction", "(0, inf)",
+         self.friction)
+    half_diag = 0.5 * math.hypot(*self.footprint)
+    need(self.crown_radius > 4 * half_diag, "crown_radius",
+         f"> {4 * half_diag:.3f} m (or inf for a flat pad)", self.crown_radius)
+    need(0 < self.die_depth < self.thickness, "die_depth", f"(0, {self.thickness}) m",
+         self.die_depth)
+    need(all(abs(x) < self.footprint[0] / 2 for x in self.die_x), "die_x",
+         f"|x| < {self.footprint[0] / 2} m", self.die_x)
+    need(all(abs(y) < self.footprint[1] / 2 for y in self.die_y), "die_y",
+         f"|y| < {self.footprint[1] / 2} m", self.die_y)
+    need(0 <= self.damping_ratio <= 2, "damping_ratio", "[0, 2]", self.damping_ratio)
+    need(1e-4 <= self.timestep <= 2e-3, "timestep", "[1e-4, 2e-3] s", self.timestep)
+
+
+def build_spec(params: FootpadParams, friction: bool = True) -> mujoco.MjSpec:
+  """Builds the rig as an MjSpec.
+
+  Args:
+    params: physical parameters.
+    friction: frictional contact (condim 3) when True; frictionless (condim 1) otherwise.
+  Returns:
+    The spec; compile with `spec.compile()`.
+  """
+  params.validate()
+  spec = mujoco.MjSpec()
+  spec.modelname = "footpad"
+  opt = spec.option
+  opt.timestep = params.timestep
+  # Measured here: a looser tolerance gave false shear spikes; implicitfast diverged.
+  opt.integrator = mujoco.mjtIntegrator.mjINT_DISCRETE
+  opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+  opt.tolerance = 1e-8
+  opt.iterations = 200
+  opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+  opt.impratio = 100.0
+  # The CNC holds the pad, the plate is tared: gravity only adds the pad's weight offset.
+  opt.gravity = [0.0, 0.0, 0.0]
+
+  # Stiff contact: timeconst below the step is replaced by the stiffest resolvable row
+  # (discrete integrator, refsafe); rubber compliance lives in the element springs.
+  contact_solref = [params.timestep, 1.0]
+  contact_solimp = [0.9, 0.95, 1e-3, 0.5, 2.0]
+  condim = 3 if friction else 1
+
+  world = spec.worldbody
+  plate = world.add_body(name="plate")
+  plate.add_geom(name="plate", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.06, 0.06, 0.005],
+                 pos=[0, 0, -0.005], condim=condim, contype=0, conaffinity=1, friction=[params.friction, 0.005, 1e-4],
+                 solref=contact_solref, solimp=contact_solimp, rgba=[0.6, 0.6, 0.65, 1])
+  plate.add_site(name="ft", pos=[0, 0, 0])
+
+  carriage = world.add_body(name="carriage", pos=[0, 0, 0])
+  for i, axis in enumerate(AXES):
+    ax = [0.0, 0.0, 0.0]
+    ax[i] = 1.0
+    carriage.add_joint(name=f"cnc_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=ax,
+                       armature=params.cnc_mass)
+  pcb_z = params.thickness
+  carriage.add_geom(name="pcb", type=mujoco.mjtGeom.mjGEOM_BOX, contype=0, conaffinity=0,
+                    size=[params.footprint[0] / 2, params.footprint[1] / 2, 0.0008],
+                    pos=[0, 0, pcb_z + 0.0008], mass=0.02, rgba=[0.1, 0.5, 0.2, 1])
+  carriage.add_geom(name="rubber", type=mujoco.mjtGeom.mjGEOM_BOX, contype=0, conaffinity=0,
+                    size=[params.footprint[0] / 2, params.footprint[1] / 2, pcb_z / 2],
+                    pos=[0, 0, pcb_z / 2], mass=0.024, group=2, rgba=[0.9, 0.9, 0.8, 0.3])
+  for ax_i, axis in enumerate(AXES):
+    act = spec.add_actuator(name=f"cnc_{axis}", target=f"cnc_{axis}",
+                            trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    m_eff = params.cnc_mass + 0.044 + params.num_elements * 1e-4
+    act.set_to_position(kp=params.cnc_kp, kv=2.0 * math.sqrt(params.cnc_kp * m_eff))
+
+  k = params.element_stiffness()
+  dx, dy = params.element_size
+  centres = params.element_centres()
+  sag = params.crown_sag()
+  for e in range(params.num_elements):
+    h_local = params.thickness - sag[e]
+    mass = params.density * dx * dy * h_local
+    r = params.tip_radius
+    el = carriage.add_body(name=f"el{e}", pos=[centres[e, 0], centres[e, 1], sag[e] + r])
+    for i, axis in enumerate(AXES):
+      ax = [0.0, 0.0, 0.0]
+      ax[i] = 1.0
+      el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=ax,
+                   stiffness=k[e, i], damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
+    el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
+                # Tips collide with the plate only, never with each other.
+                contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
+                solimp=contact_solimp, rgba=[0.9, 0.6, 0.2, 1])
+
+  spec.add_sensor(name="ft_force", type=mujoco.mjtSensor.mjSENS_FORCE,
+                  objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
+  spec.add_sensor(name="ft_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
+                  objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
+  return spec
+
+
+def element_qpos_index(model: mujoco.MjModel, params: FootpadParams) -> np.ndarray:
+  """(num_elements, 3) qpos addresses of the element joints (x, y, z)."""
+  idx = np.empty((params.num_elements, 3), dtype=np.int64)
+  for e in range(params.num_elements):
+    for i, axis in enumerate(AXES):
+      idx[e, i] = model.jnt_qposadr[model.joint(f"el{e}_{axis}").id]
+  return idx
+
+
+def cnc_qpos_index(model: mujoco.MjModel) -> np.ndarray:
+  """(3,) qpos addresses of the CNC joints (x, y, z)."""
+  return np.array([model.jnt_qposadr[model.joint(f"cnc_{a}").id] for a in AXES])
+
