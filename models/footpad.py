@@ -50,6 +50,10 @@ class FootpadParams:
     timestep: simulation step, s; one step per 1 kHz sample (paper Sec. III-A).
     cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at the 228 N peak.
     cnc_mass: moving mass of each CNC axis (as joint armature), kg.
+    relaxation_fraction: for the `viscoelastic` effect, the share of each element's normal
+      stiffness that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
+    relaxation_time: for the `viscoelastic` effect, the Maxwell arm's time constant, s.
+      Assumed 1 s.
   """
 
   grid: tuple[int, int] = (6, 8)
@@ -68,6 +72,8 @@ class FootpadParams:
   timestep: float = 0.001
   cnc_kp: float = 2e7
   cnc_mass: float = 1.0
+  relaxation_fraction: float = 0.2
+  relaxation_time: float = 1.0
 
   @property
   def shear_modulus(self) -> float:
@@ -141,12 +147,16 @@ class FootpadParams:
     need(1e-4 <= self.timestep <= 2e-3, "timestep", "[1e-4, 2e-3] s", self.timestep)
 
 
-def build_spec(params: FootpadParams, friction: bool = True) -> mujoco.MjSpec:
+def build_spec(params: FootpadParams, friction: bool = True,
+               viscoelastic: bool = False) -> mujoco.MjSpec:
   """Builds the rig as an MjSpec.
 
   Args:
     params: physical parameters.
     friction: frictional contact (condim 3) when True; frictionless (condim 1) otherwise.
+    viscoelastic: each element's normal spring becomes a standard linear solid: the long-term
+      spring (a fixed tendon over the two z joints) in parallel with a Maxwell arm (spring on
+      the tip's z joint, dashpot on an intermediate z joint).
   Returns:
     The spec; compile with `spec.compile()`.
   """
@@ -161,13 +171,20 @@ def build_spec(params: FootpadParams, friction: bool = True) -> mujoco.MjSpec:
   opt.tolerance = 1e-8
   opt.iterations = 200
   opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+  # A soft friction row creeps at a rate set by its impedance: at impratio 1 a held 3 mm
+  # stroke relaxed from 113 N to 40 N in 1 s (measured); at 100 the creep is below 1 %.
   opt.impratio = 100.0
   # The CNC holds the pad, the plate is tared: gravity only adds the pad's weight offset.
   opt.gravity = [0.0, 0.0, 0.0]
 
   # Stiff contact: timeconst below the step is replaced by the stiffest resolvable row
   # (discrete integrator, refsafe); rubber compliance lives in the element springs.
-  contact_solref = [params.timestep, 1.0]
+  # Contact rows: timeconst = timestep/2 with refsafe off and dmin = 0.9. Measured here: stiffer
+  # rows (timeconst <= 0.2 ms, or dmin >= 0.95 at the refsafe limit) made every element lose
+  # contact at the onset of sliding (shear collapsing to ~0 each cycle); this setting slides
+  # smoothly at exactly mu*N and costs ~2 % of the normal stiffness in contact penetration.
+  opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
+  contact_solref = [params.timestep / 2, 1.0]
   contact_solimp = [0.9, 0.95, 1e-3, 0.5, 2.0]
   condim = 3 if friction else 1
 
@@ -205,12 +222,30 @@ def build_spec(params: FootpadParams, friction: bool = True) -> mujoco.MjSpec:
     h_local = params.thickness - sag[e]
     mass = params.density * dx * dy * h_local
     r = params.tip_radius
-    el = carriage.add_body(name=f"el{e}", pos=[centres[e, 0], centres[e, 1], sag[e] + r])
+    parent = carriage
+    pos = [centres[e, 0], centres[e, 1], sag[e] + r]
+    kz = k[e, 2]
+    if viscoelastic:
+      k1 = params.relaxation_fraction * k[e, 2]
+      parent = carriage.add_body(name=f"el{e}_v", pos=pos)
+      parent.add_joint(name=f"el{e}_zv", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                       damping=k1 * params.relaxation_time)
+      parent.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
+                      contype=0, conaffinity=0, group=3)
+      pos = [0, 0, 0]
+      kz = k1
+    el = parent.add_body(name=f"el{e}", pos=pos)
     for i, axis in enumerate(AXES):
       ax = [0.0, 0.0, 0.0]
       ax[i] = 1.0
+      stiff = kz if i == 2 else k[e, i]
       el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=ax,
-                   stiffness=k[e, i], damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
+                   stiffness=stiff,
+                   damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
+    if viscoelastic:
+      tendon = spec.add_tendon(name=f"el{e}_long", stiffness=[k[e, 2], 0, 0])
+      tendon.wrap_joint(f"el{e}_zv", 1.0)
+      tendon.wrap_joint(f"el{e}_z", 1.0)
     el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
                 # Tips collide with the plate only, never with each other.
                 contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
@@ -223,13 +258,30 @@ def build_spec(params: FootpadParams, friction: bool = True) -> mujoco.MjSpec:
   return spec
 
 
-def element_qpos_index(model: mujoco.MjModel, params: FootpadParams) -> np.ndarray:
-  """(num_elements, 3) qpos addresses of the element joints (x, y, z)."""
-  idx = np.empty((params.num_elements, 3), dtype=np.int64)
-  for e in range(params.num_elements):
-    for i, axis in enumerate(AXES):
-      idx[e, i] = model.jnt_qposadr[model.joint(f"el{e}_{axis}").id]
-  return idx
+def element_forces(model: mujoco.MjModel, params: FootpadParams,
+                   qpos: np.ndarray) -> np.ndarray:
+  """Forces the plate applies to the rubber at each element, from joint positions.
+
+  Args:
+    model: a model built by `build_spec` with these params (viscoelastic or not).
+    params: the same parameters.
+    qpos: (..., nq) joint positions.
+  Returns:
+    (..., num_elements, 3) forces, N; +z compresses the rubber.
+  """
+  adr = lambda name: model.jnt_qposadr[model.joint(name).id]
+  idx = np.array([[adr(f"el{e}_{a}") for a in AXES] for e in range(params.num_elements)])
+  k = params.element_stiffness()
+  flat = idx.ravel()
+  if np.all(np.diff(flat) == 1):  # the usual layout: a contiguous slice, no gather
+    q = qpos[..., flat[0]:flat[-1] + 1].reshape(qpos.shape[:-1] + idx.shape)
+  else:
+    q = qpos[..., idx]
+  f = k * q
+  if model.ntendon:  # standard linear solid: long-term spring on zv + z, Maxwell spring on z
+    zv = qpos[..., [adr(f"el{e}_zv") for e in range(params.num_elements)]]
+    f[..., 2] = k[:, 2] * (zv + q[..., 2]) + params.relaxation_fraction * k[:, 2] * q[..., 2]
+  return f
 
 
 def cnc_qpos_index(model: mujoco.MjModel) -> np.ndarray:

@@ -20,17 +20,13 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import hashlib
-import json
-import os
-import pathlib
-import tempfile
 
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
 from models.footpad import FootpadParams
+from sim import recording
 
 
 class Kernel(enum.Enum):
@@ -288,27 +284,19 @@ def halfspace_kernel(params: FootpadParams, quadrature: int = 6) -> np.ndarray:
   return k.reshape(len(k), params.num_elements, len(sub), 3).mean(axis=2)
 
 
-def _cache_dir() -> pathlib.Path:
-  root = os.environ.get("TESTBENCH_CACHE", os.path.join(os.path.expanduser("~"), ".cache",
-                                                        "footpad-testbench"))
-  return pathlib.Path(root)
-
-
 def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
                mesh: LayerMesh = LayerMesh()) -> np.ndarray:
   """The kernel of the given kind; finite-element kernels are cached on disk by content hash."""
   if kernel is Kernel.HALFSPACE:
     return halfspace_kernel(params)
-  key = json.dumps({"footprint": params.footprint, "grid": params.grid,
+  key = {"footprint": params.footprint, "grid": params.grid,
                     "thickness": params.thickness, "nu": params.poisson_ratio,
                     "dies": params.die_positions().round(9).tolist(),
-                    "mesh": dataclasses.asdict(mesh), "version": 1}, sort_keys=True)
-  path = _cache_dir() / "kernels" / (hashlib.sha256(key.encode()).hexdigest()[:20] + ".npy")
+                    "mesh": dataclasses.asdict(mesh), "version": 1}
+  path = recording.cache_dir() / "kernels" / (recording.content_key(key) + ".npy")
   if path.exists():
     return np.load(path)
   g = bonded_layer_kernel(params, mesh)
   path.parent.mkdir(parents=True, exist_ok=True)
-  with tempfile.NamedTemporaryFile(dir=path.parent, suffix=".tmp", delete=False) as f:
-    np.save(f, g)
-  os.replace(f.name, path)
+  recording.atomic_write(path, lambda f: np.save(f, g))
   return g

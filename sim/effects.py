@@ -1,0 +1,72 @@
+"""Named effects: every non-ideality a scene can ask for, off unless the scene lists it.
+
+Model effects change the MuJoCo model; signal effects are pure, seeded functions applied after
+the physics (`sim.sensor_chain`). Each effect draws its random numbers from its own stream,
+derived from the run's seed and the effect's name, so switching one effect on or off never
+changes the draws of another, and an effect that is off draws nothing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import zlib
+
+import numpy as np
+
+
+class Kind(enum.Enum):
+  MODEL = "model"
+  SIGNAL = "signal"
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+  """An effect's name, kind and the physical thing it stands for (with its magnitude's source)."""
+  name: str
+  kind: Kind
+  doc: str
+
+
+FOOTPAD_EFFECTS: dict[str, Effect] = {e.name: e for e in [
+    Effect("friction", Kind.MODEL,
+           "Coulomb friction between pad and plate (condim 3, elliptic cone), coefficient "
+           "FootpadParams.friction = 0.9: 0.8-1 reproduces the paper's ~220 N shear ranges "
+           "(DESIGN.md, measured). Off: frictionless contact, no shear."),
+    Effect("viscoelastic", Kind.MODEL,
+           "Stress relaxation of the polyurethane in compression: a standard linear solid per "
+           "element (the element spring in parallel with a Maxwell arm of stiffness "
+           "relaxation_fraction * k and time constant relaxation_time). Magnitudes are assumed "
+           "(20 % over 1 s, of the order reported for soft cast polyurethanes); no datasheet "
+           "gives them for Vytaflex 20."),
+    Effect("sensor_noise", Kind.SIGNAL,
+           "White noise of the pressure sensor and ADC, in counts rms (default 1.5). Assumed: "
+           "MPXH6400A output noise plus MCP3208 transition noise (datasheet: +-1 LSB INL) on an "
+           "unshielded board; replace with a value measured at rest on your rig."),
+    Effect("gain_offset_spread", Kind.SIGNAL,
+           "Unit-to-unit spread of each die's sensitivity and offset after the casing is "
+           "machined off and the die is cast in rubber: gain x N(1, 0.10), offset N(0, 3 kPa). "
+           "Assumed; the datasheet's +-1.5 % VFSS holds only for unaltered sensors."),
+    Effect("adc_quantisation", Kind.SIGNAL,
+           "12-bit conversion (MCP3208): counts are floored to integers."),
+    Effect("adc_saturation", Kind.SIGNAL,
+           "Output limits: the MPXH6400A output saturates at its full-scale 400 kPa absolute "
+           "(datasheet range 20-400 kPa) and the ADC clips at its reference (AdcConfig.vref): "
+           "~299 kPa gauge with a 5 V reference, ~175 kPa with 3.3 V."),
+    Effect("ft_noise", Kind.SIGNAL,
+           "Noise of the ATI Delta SI-660-60 plate: 1/8 N rms on Fx, Fy, 1/4 N on Fz (ATI's "
+           "stated resolution for that calibration) and 0.0075 N m on torques (assumed)."),
+]}
+
+
+def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
+  """Validates effect names; returns them sorted and de-duplicated."""
+  unknown = [n for n in names if n not in known]
+  if unknown:
+    raise ValueError(f"unknown effect {unknown[0]!r}: allowed {', '.join(sorted(known))}")
+  return tuple(sorted(set(names)))
+
+
+def rng_for(seed: int, effect: str) -> np.random.Generator:
+  """The random stream of one effect in one run: SeedSequence(seed) spawned by the name."""
+  return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(zlib.crc32(effect.encode()),)))

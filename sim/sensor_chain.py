@@ -1,0 +1,106 @@
+"""Die stress to ADC counts for the footpad: MPXH6400A transfer law, named effects, MCP3208.
+
+Runs after the physics and never feeds back into it, so it can be re-applied to stored die
+pressures with other effects or another seed without re-simulating.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sim.effects import FOOTPAD_EFFECTS, check_effects, rng_for
+
+ATMOSPHERE = 101.325e3  # Pa
+# MPXH6400A transfer function (datasheet): Vout = Vs * (0.002421 * P[kPa] - 0.00842).
+MPX_GAIN = 0.002421  # 1/kPa
+MPX_OFFSET = 0.00842
+MPX_P_MAX = 400e3  # Pa absolute, end of the rated range
+MPX_P_MIN = 20e3
+
+
+@dataclasses.dataclass(frozen=True)
+class AdcConfig:
+  """Sensor supply and ADC.
+
+  Attributes:
+    vs: sensor supply, V (datasheet nominal 5.1 V; the footpad board runs at 5 V).
+    vref: ADC reference, V; sets where the counts clip.
+    bits: ADC resolution.
+    noise_counts: rms noise for the `sensor_noise` effect, counts.
+    gain_spread: relative sd of per-die sensitivity for `gain_offset_spread`.
+    offset_spread: sd of per-die offset for `gain_offset_spread`, Pa.
+  """
+  vs: float = 5.0
+  vref: float = 5.0
+  bits: int = 12
+  noise_counts: float = 1.5
+  gain_spread: float = 0.10
+  offset_spread: float = 3e3
+
+  @property
+  def full_scale(self) -> int:
+    return 2**self.bits - 1
+
+  def validate(self) -> None:
+    if not 1.0 <= self.vref <= 5.5:
+      raise ValueError(f"adc vref={self.vref} is out of range: allowed [1, 5.5] V")
+    if not 4.5 <= self.vs <= 5.5:
+      raise ValueError(f"adc vs={self.vs} is out of range: allowed [4.5, 5.5] V")
+    if self.bits not in (8, 10, 12, 14, 16):
+      raise ValueError(f"adc bits={self.bits} is out of range: allowed 8, 10, 12, 14, 16")
+
+
+def pressure_to_counts(pressure: np.ndarray, adc: AdcConfig) -> np.ndarray:
+  """Ideal transfer law: gauge die pressure (Pa) to counts (float, unclipped)."""
+  volts = adc.vs * (MPX_GAIN * (pressure + ATMOSPHERE) / 1e3 - MPX_OFFSET)
+  return volts / adc.vref * (adc.full_scale + 1)
+
+
+def counts_to_pressure(counts: np.ndarray, adc: AdcConfig) -> np.ndarray:
+  """Inverse of `pressure_to_counts`, Pa gauge."""
+  volts = np.asarray(counts) * adc.vref / (adc.full_scale + 1)
+  return (volts / adc.vs + MPX_OFFSET) / MPX_GAIN * 1e3 - ATMOSPHERE
+
+
+def saturation_pressure(adc: AdcConfig) -> float:
+  """Lowest gauge pressure (Pa) at which a die's counts stop following the load."""
+  return min(MPX_P_MAX - ATMOSPHERE, float(counts_to_pressure(adc.full_scale, adc)))
+
+
+def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
+          adc: AdcConfig = AdcConfig()) -> tuple[np.ndarray, np.ndarray]:
+  """Runs the chain.
+
+  Args:
+    pressure: (N, D) die pressures, Pa gauge (compressive positive).
+    wrench: (N, 6) plate wrench, N and N m.
+    effects: names of the signal effects to apply (model effects are ignored here).
+    seed: the run's seed.
+    adc: sensor supply and ADC settings.
+  Returns:
+    counts (N, D) float64 and the plate wrench as measured (N, 6).
+  """
+  effects = check_effects(effects, FOOTPAD_EFFECTS)
+  adc.validate()
+  p = np.asarray(pressure, dtype=np.float64)
+  if "gain_offset_spread" in effects:
+    rng = rng_for(seed, "gain_offset_spread")
+    gain = rng.normal(1.0, adc.gain_spread, p.shape[1])
+    offset = rng.normal(0.0, adc.offset_spread, p.shape[1])
+    p = p * gain + offset
+  if "adc_saturation" in effects:
+    p = np.clip(p, MPX_P_MIN - ATMOSPHERE, MPX_P_MAX - ATMOSPHERE)
+  counts = pressure_to_counts(p, adc)
+  if "sensor_noise" in effects:
+    counts = counts + rng_for(seed, "sensor_noise").normal(0.0, adc.noise_counts, counts.shape)
+  if "adc_saturation" in effects:
+    counts = np.clip(counts, 0.0, float(adc.full_scale))
+  if "adc_quantisation" in effects:
+    counts = np.floor(counts)
+  measured = np.array(wrench, dtype=np.float64)
+  if "ft_noise" in effects:
+    sd = np.array([0.125, 0.125, 0.25, 0.0075, 0.0075, 0.0075])
+    measured = measured + rng_for(seed, "ft_noise").normal(0.0, 1.0, measured.shape) * sd
+  return counts, measured

@@ -1,0 +1,127 @@
+"""CNC trajectories of the LSANN paper (Sec. III-B, III-C, Fig. 6), sampled at the step rate.
+
+Every path is an XY route that starts and ends at the origin, run at one Z indentation at a
+constant feed; an episode adds the approach from just above first touch and the retreat.
+`z_press` is the exception: presses straight down to a depth and back, repeated.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+STROKE = 0.003  # m, the paper's 3 mm strokes
+APPROACH_HEIGHT = 1e-4  # m above first touch where an episode starts and ends
+
+
+def _line(a, b) -> list[np.ndarray]:
+  return [np.asarray(a, float), np.asarray(b, float)]
+
+
+def _circle(centre, start, sign: int, n: int = 180) -> list[np.ndarray]:
+  """Full circle from `start` around `centre`; sign +1 counter-clockwise, -1 clockwise."""
+  c = np.asarray(centre, float)
+  r0 = np.asarray(start, float) - c
+  a0 = np.arctan2(r0[1], r0[0])
+  rad = np.hypot(*r0)
+  ang = a0 + sign * np.linspace(0, 2 * np.pi, n + 1)
+  return list(c + rad * np.stack([np.cos(ang), np.sin(ang)], axis=1))
+
+
+def _out_and_back(angle_deg: float, length: float = STROKE) -> list[np.ndarray]:
+  a = np.deg2rad(angle_deg)
+  return _line((0, 0), (length * np.cos(a), length * np.sin(a))) + [np.zeros(2)]
+
+
+def _route(name: str, repeats: int) -> list[np.ndarray]:
+  pts: list[np.ndarray] = [np.zeros(2)]
+  if name == "x_stroke":
+    for _ in range(repeats):
+      pts += [np.array([STROKE, 0]), np.array([-STROKE, 0]), np.zeros(2)]
+  elif name == "y_stroke":
+    for _ in range(repeats):
+      pts += [np.array([0, STROKE]), np.array([0, -STROKE]), np.zeros(2)]
+  elif name == "asterisk":
+    for ang in range(0, 360, 45):
+      pts += _out_and_back(ang)[1:]
+  elif name == "circular":
+    for d in (0.002, 0.004, 0.006):
+      r = d / 2
+      pts += [np.array([r, 0.0])]
+      pts += _circle((0, 0), (r, 0), -1)[1:]
+      pts += _circle((0, 0), (r, 0), +1)[1:]
+      pts += [np.zeros(2)]
+  elif name == "test_path_1":
+    for ang in (0, 180, 90, 270):
+      pts += _out_and_back(ang)[1:]
+    r = 0.003
+    pts += [np.array([r, 0.0])] + _circle((0, 0), (r, 0), -1)[1:] + _circle((0, 0), (r, 0), 1)[1:]
+    pts += [np.zeros(2)]
+  elif name == "test_path_2":
+    for ang in (45, 135, 225, 315):
+      pts += _out_and_back(ang)[1:]
+    for c in ((0.0015, 0), (-0.0015, 0), (0, 0.0015), (0, -0.0015)):
+      pts += _circle(c, (0, 0), 1)[1:]
+  else:
+    raise ValueError(f"unknown path {name!r}: allowed {', '.join(PATHS)}")
+  return pts
+
+
+PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular", "test_path_1",
+         "test_path_2")
+
+
+def _resample(points: np.ndarray, step: float) -> np.ndarray:
+  """Points spaced `step` apart in arc length along a polyline (ends included)."""
+  seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+  s = np.concatenate([[0.0], np.cumsum(seg)])
+  n = max(int(np.ceil(s[-1] / step)), 1)
+  t = np.linspace(0.0, s[-1], n + 1)
+  return np.stack([np.interp(t, s, points[:, i]) for i in range(points.shape[1])], axis=1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+  """One continuous CNC run.
+
+  Attributes:
+    path: path name.
+    z_level: nominal indentation, m (positive into the plate).
+    target: (T, 3) CNC position commands per step, m (z negative = pressing).
+    phase: (T,) 0 approach/retreat, 1 on the path at z_level.
+  """
+  path: str
+  z_level: float
+  target: np.ndarray
+  phase: np.ndarray
+
+
+def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10) -> Episode:
+  """The CNC commands of one path at one indentation.
+
+  Args:
+    path: one of PATHS.
+    z_level: indentation, m (for z_press: the press depth).
+    feed: feed rate, m/s.
+    dt: sample period, s.
+    repeats: presses for z_press; back-and-forth strokes for x_stroke / y_stroke.
+  """
+  step = feed * dt
+  z_path = np.array([[APPROACH_HEIGHT], [-z_level]])
+  down = _resample(z_path, step)[:, 0]
+  up = down[::-1]
+  if path == "z_press":
+    one = np.concatenate([down, up[1:]])
+    z = np.concatenate([one] + [one[1:]] * (repeats - 1))
+    target = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
+    phase = (z < 0).astype(np.int8)
+    return Episode(path, z_level, target, phase)
+  xy = _resample(np.array(_route(path, repeats)), step)
+  hold = int(round(0.05 / dt))  # 50 ms to settle at each end of the press
+  parts = [np.column_stack([np.zeros((len(down), 2)), down]),
+           np.column_stack([np.zeros((hold, 2)), np.full(hold, -z_level)]),
+           np.column_stack([xy, np.full(len(xy), -z_level)]),
+           np.column_stack([np.zeros((len(up), 2)), up])]
+  phase = np.concatenate([np.zeros(len(down) + hold), np.ones(len(xy)), np.zeros(len(up))])
+  return Episode(path, z_level, np.concatenate(parts), phase.astype(np.int8))

@@ -1,0 +1,95 @@
+"""The die-stress kernels against elastic closed forms and equilibrium."""
+
+import numpy as np
+import pytest
+
+from models.footpad import FootpadParams
+from sim import layer
+
+
+def _graded(half, fine, n_fine, n_coarse):
+  core = np.linspace(0, fine, n_fine + 1)
+  r = (half / fine) ** (1 / n_coarse)
+  return np.concatenate([core, fine * r ** np.arange(1, n_coarse + 1)])
+
+
+def _point_load_ratio(thickness, depth=0.005):
+  """FE pressure under a small central patch over the Boussinesq point-load value."""
+  xs = _graded(max(3 * thickness, 0.03), 0.003, 6, 8)
+  zf = np.linspace(0, 0.006, 13)
+  zs = zf if thickness <= 0.006 else np.concatenate(
+      [zf, 0.006 * (thickness / 0.006) ** (np.arange(1, 7) / 6)])
+  # quarter model: a 1x1 mm patch of total force 1 N -> 1/4 N on the quarter patch
+  loads = layer.patch_loads(xs, xs, len(zs), [(0, 0.0005, 0, 0.0005)]) / 4
+  sol = layer.solve_block(xs, xs, zs, 0.49, loads, symmetric_xy=True)
+  fe = -sol.stress_zz(np.array([[0, 0, depth]]))[0, 2]
+  ref = layer.boussinesq_cerruti(np.array([[0, 0, depth]]), np.zeros((1, 2)))[0, 0, 2]
+  return fe / ref
+
+
+def test_boussinesq_closed_form():
+  # 3 P / (2 pi z^2) directly below a point load
+  p = layer.boussinesq_cerruti(np.array([[0, 0, 0.005]]), np.zeros((1, 2)))[0, 0]
+  assert p[2] == pytest.approx(3 / (2 * np.pi * 0.005**2), rel=1e-12)
+  assert p[0] == p[1] == 0
+
+
+def test_thick_layer_tends_to_boussinesq():
+  thin, thick, thicker = (_point_load_ratio(h) for h in (0.006, 0.024, 0.048))
+  assert thin > 1.2  # a thin bonded layer concentrates stress over its rigid base
+  assert abs(thicker - thick) < 0.01  # converged with thickness...
+  assert abs(thicker - 1) < 0.05  # ...to the half-space (FE discretisation ~3 %)
+
+
+@pytest.fixture(scope="module")
+def real_layer():
+  p = FootpadParams()
+  mesh = layer.LayerMesh()
+  xs = np.linspace(-p.footprint[0] / 2, p.footprint[0] / 2, p.grid[0] * mesh.subdivisions + 1)
+  ys = np.linspace(-p.footprint[1] / 2, p.footprint[1] / 2, p.grid[1] * mesh.subdivisions + 1)
+  zs = np.linspace(0, p.thickness, mesh.layers + 1)
+  dx, dy = p.element_size
+  cx, cy = p.element_centres()[9]  # an off-centre element
+  loads = layer.patch_loads(xs, ys, len(zs), [(cx - dx / 2, cx + dx / 2, cy - dy / 2, cy + dy / 2)])
+  return layer.solve_block(xs, ys, zs, p.poisson_ratio, loads), (cx, cy)
+
+
+def test_base_plane_equilibrium(real_layer):
+  sol, (x0, y0) = real_layer
+  # the plane through the centres of the elements adjoining the PCB
+  c = 0.5 * (sol.zs[-1] + sol.zs[-2])
+  xc = 0.5 * (sol.xs[1:] + sol.xs[:-1])
+  yc = 0.5 * (sol.ys[1:] + sol.ys[:-1])
+  gx, gy = np.meshgrid(xc, yc, indexing="ij")
+  pts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, c)], axis=1)
+  area = np.outer(np.diff(sol.xs), np.diff(sol.ys)).ravel()
+  p = -sol.stress_zz(pts)  # columns: unit Fx, Fy, Fz on the patch
+  # force: the normal stresses carry the applied normal force, and nothing of the shear
+  assert np.sum(p[:, 2] * area) == pytest.approx(1.0, rel=0.02)
+  assert abs(np.sum(p[:, 0] * area)) < 0.02
+  # first moment: x0 * Fz + c * Fx (and y likewise)
+  assert np.sum(p[:, 2] * pts[:, 0] * area) == pytest.approx(x0, rel=0.02)
+  assert np.sum(p[:, 0] * pts[:, 0] * area) == pytest.approx(c, rel=0.02)
+  assert np.sum(p[:, 1] * pts[:, 1] * area) == pytest.approx(c, rel=0.02)
+
+
+def test_kernels_agree_in_sign_and_order_for_normal_load():
+  p = FootpadParams()
+  g = layer.die_kernel(p, layer.Kernel.BONDED_LAYER)
+  h = layer.die_kernel(p, layer.Kernel.HALFSPACE)
+  assert g.shape == h.shape == (6, p.num_elements, 3)
+  uniform_g = g[:, :, 2].sum(axis=1) / p.num_elements
+  uniform_h = h[:, :, 2].sum(axis=1) / p.num_elements
+  mean_stress = 1 / (p.footprint[0] * p.footprint[1])
+  assert np.all((uniform_g > 0.7 * mean_stress) & (uniform_g < 1.1 * mean_stress))
+  assert np.all((uniform_h > 0.7 * mean_stress) & (uniform_h < 1.1 * mean_stress))
+
+
+def test_middle_row_blind_to_y_shear():
+  """Under uniform Y shear the middle row (y = 0) sees almost nothing; under X shear it does."""
+  p = FootpadParams()
+  g = layer.die_kernel(p, layer.Kernel.BONDED_LAYER)
+  middle = [i for i, (x, y, z) in enumerate(p.die_positions()) if y == 0]
+  under_x = np.abs(g[middle, :, 0].sum(axis=1))
+  under_y = np.abs(g[middle, :, 1].sum(axis=1))
+  assert np.all(under_y < 0.1 * under_x)

@@ -1,0 +1,105 @@
+"""The rig's mechanics against closed-form references."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from models import footpad as model_lib
+
+P = model_lib.FootpadParams()
+
+
+def _press(model, data, z, x=0.0, y=0.0, steps=300):
+  data.ctrl[:] = [x, y, -z]
+  for _ in range(steps):
+    mujoco.mj_step(model, data)
+
+
+@pytest.fixture(scope="module")
+def rig():
+  model = model_lib.build_spec(P).compile()
+  return model, mujoco.MjData(model)
+
+
+def test_normal_force_matches_EA_over_h(rig):
+  model, data = rig
+  mujoco.mj_resetData(model, data)
+  for z in (0.0005, 0.001, 0.0015):
+    _press(model, data, z)
+    indentation = -data.qpos[model_lib.cnc_qpos_index(model)[2]]
+    expected = P.youngs_modulus * P.footprint[0] * P.footprint[1] / P.thickness * indentation
+    assert data.sensordata[2] == pytest.approx(expected, rel=0.05)
+
+
+def test_normal_range_near_paper(rig):
+  model, data = rig
+  mujoco.mj_resetData(model, data)
+  _press(model, data, 0.0015)
+  assert 200 < data.sensordata[2] < 245  # paper: 221 N Z range
+
+
+def test_plate_sensor_equals_element_forces_quasistatically(rig):
+  model, data = rig
+  mujoco.mj_resetData(model, data)
+  _press(model, data, 0.001)
+  for x in np.linspace(0, 0.0015, 600):  # 2.5 mm/s, then hold
+    data.ctrl[0] = x
+    mujoco.mj_step(model, data)
+  _press(model, data, 0.001, x=0.0015, steps=500)
+  fsum = model_lib.element_forces(model, P, data.qpos).sum(axis=0)
+  np.testing.assert_allclose(data.sensordata[:3], fsum, rtol=0.01, atol=0.01)
+  assert abs(data.sensordata[0]) > 20  # a real shear load, not a trivial zero
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_full_slip_shear_is_mu_times_normal(rig, axis):
+  model, data = rig
+  mujoco.mj_resetData(model, data)
+  _press(model, data, 0.0005)
+  ratios = []
+  for s in np.linspace(0, 0.006, 1201):
+    data.ctrl[axis] = s
+    mujoco.mj_step(model, data)
+    ratios.append(-data.sensordata[axis] / data.sensordata[2])
+  assert np.mean(ratios[-300:]) == pytest.approx(P.friction, rel=0.02)
+  assert np.std(ratios[-300:]) < 0.02 * P.friction  # steady sliding, no stick-slip collapse
+
+
+def test_shear_range_of_order_200N(rig):
+  model, data = rig
+  mujoco.mj_resetData(model, data)
+  _press(model, data, 0.0015)
+  fx = []
+  for s in np.concatenate([np.linspace(0, 0.003, 600), np.linspace(0.003, -0.003, 1200)]):
+    data.ctrl[0] = s
+    mujoco.mj_step(model, data)
+    fx.append(data.sensordata[0])
+  assert 150 < np.ptp(fx) < 450
+
+
+def test_element_stiffness_sums_to_EA_over_h():
+  k = P.element_stiffness()
+  area = P.footprint[0] * P.footprint[1]
+  assert k[:, 2].sum() == pytest.approx(P.youngs_modulus * area / P.thickness, rel=1e-12)
+  assert k[:, 0].sum() == pytest.approx(P.shear_modulus * area / P.thickness, rel=1e-12)
+
+
+def test_viscoelastic_relaxes_with_its_time_constant():
+  model = model_lib.build_spec(P, viscoelastic=True).compile()
+  data = mujoco.MjData(model)
+  z = 0.001
+  data.ctrl[:] = [0, 0, -z]
+  forces = []
+  for _ in range(4000):
+    mujoco.mj_step(model, data)
+    forces.append(data.sensordata[2])
+  k_long = P.youngs_modulus * P.footprint[0] * P.footprint[1] / P.thickness
+  indentation = -data.qpos[model_lib.cnc_qpos_index(model)[2]]
+  # Long-term: the relaxed spring alone; early: more, decaying with relaxation_time.
+  assert forces[-1] == pytest.approx(k_long * indentation, rel=0.05)
+  excess = np.array(forces) - forces[-1]
+  t1 = int(round(P.relaxation_time / P.timestep))
+  ratio = excess[200 + t1] / excess[200]
+  assert ratio == pytest.approx(math.exp(-1.0), abs=0.08)
