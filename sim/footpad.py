@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import json
 import math
 import os
 import time
@@ -281,11 +282,11 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
       z_level=np.concatenate([np.full(len(ep.target), ep.z_level) for ep in eps]),
       phase=np.concatenate([ep.phase for ep in eps]),
       episode=np.concatenate([np.full(len(ep.target), i, np.int32) for i, ep in enumerate(eps)]),
-      meta={"scene": "footpad", "config": scene.config(), "paths": path_names,
+      meta=json.loads(json.dumps({"scene": "footpad", "config": scene.config(), "paths": path_names,
             "effects": list(effects), "seed": scene.seed, "sensors": "MPXH6400A x6",
             "units": {"counts": "ADC counts", "pressure": "Pa", "wrench": "N, N m",
                       "cnc": "m", "time": "s"},
-            "versions": versions()})
+            "versions": versions()})))
   return rec, Timing(t1 - t0, t2 - t1, physics_cpu, chain_cpu, len(pressure), threads)
 
 

@@ -1,0 +1,117 @@
+"""The footpad scene end to end: reproducibility, cache, bad input, instability."""
+
+import dataclasses
+
+import mujoco
+import numpy as np
+import pytest
+
+from benchmarks import run as cli
+from models import footpad as model_lib
+from sim import footpad, layer, trajectories
+from sim.effects import FOOTPAD_EFFECTS
+
+SMALL = footpad.FootpadScene(paths=("x_stroke",), z_levels=(0.001,), feed=0.005,
+                             effects=("friction", "sensor_noise", "ft_noise"), seed=5)
+
+
+@pytest.fixture(scope="module")
+def recording():
+  return footpad.simulate(SMALL)[0]
+
+
+def test_same_seed_same_bytes(recording):
+  again, _ = footpad.simulate(SMALL)
+  for name in ("counts", "pressure", "wrench", "element_force", "cnc", "time"):
+    assert getattr(recording, name).tobytes() == getattr(again, name).tobytes()
+
+
+def test_other_seed_changes_noise_only(recording):
+  other, _ = footpad.simulate(dataclasses.replace(SMALL, seed=6))
+  assert other.pressure.tobytes() == recording.pressure.tobytes()
+  assert other.element_force.tobytes() == recording.element_force.tobytes()
+  assert not np.array_equal(other.counts, recording.counts)
+  assert not np.array_equal(other.wrench, recording.wrench)
+
+
+def test_signal_effect_off_is_identical_to_not_listing_it(recording):
+  clean, _ = footpad.simulate(dataclasses.replace(SMALL, effects=("friction",)))
+  assert clean.pressure.tobytes() == recording.pressure.tobytes()
+  noisy_off, _ = footpad.simulate(dataclasses.replace(SMALL, effects=("friction", "ft_noise")))
+  assert noisy_off.counts.tobytes() == clean.counts.tobytes()
+
+
+def test_truth_and_summed_element_forces_are_both_recorded(recording):
+  on = recording.phase == 1
+  fz = recording.element_force[on, 2]
+  assert np.median(np.abs(recording.wrench[on, 2] - fz) / fz) < 0.01
+  assert recording.meta["effects"] == ["friction", "ft_noise", "sensor_noise"]
+  assert recording.meta["seed"] == 5 and "mujoco" in recording.meta["versions"]
+
+
+def test_cache_round_trip(tmp_path, monkeypatch):
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
+  first, timing = footpad.generate(SMALL)
+  assert timing is not None
+  second, timing2 = footpad.generate(SMALL)
+  assert timing2 is None
+  assert second.counts.tobytes() == first.counts.tobytes()
+  assert second.meta == first.meta
+  assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_middle_row_carries_less_signal_under_y_shear():
+  scene = dataclasses.replace(SMALL, paths=("x_stroke", "y_stroke"), effects=("friction",))
+  rec, _ = footpad.simulate(scene)
+  middle = [i for i, (_, y, _) in enumerate(scene.params.die_positions()) if y == 0]
+
+  def swing(path):
+    r = rec.paths(path)
+    on = r.phase == 1
+    return np.ptp(r.pressure[on][:, middle], axis=0)
+  assert np.all(swing("y_stroke") < 0.2 * swing("x_stroke"))
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(z_levels=(-0.001,)), "z_level -0.001 m is out of range"),
+    (dict(z_levels=(0.01,)), "z_level 0.01 m is out of range"),
+    (dict(paths=("spiral",)), "unknown path 'spiral'"),
+    (dict(effects=("glitter",)), "unknown effect 'glitter'"),
+    (dict(params=model_lib.FootpadParams(friction=0.0)), "friction=0.0 is out of range"),
+    (dict(params=model_lib.FootpadParams(friction=-1.0)), "friction=-1.0 is out of range"),
+])
+def test_bad_input_is_named(change, message):
+  with pytest.raises(ValueError, match=message):
+    footpad.simulate(dataclasses.replace(SMALL, **change))
+
+
+def test_cli_errors_are_one_line(capsys):
+  assert cli.main(["footpad_dataset", "--quick", "--set", "nope=1", "--no-progress"]) == 2
+  err = capsys.readouterr().err.strip()
+  assert err.startswith("error: unknown setting 'nope'") and "\n" not in err
+  with pytest.raises(SystemExit):
+    cli.main(["no_such_benchmark"])
+  assert cli.main(["--list"]) == 0
+
+
+def test_mujoco_instability_becomes_an_error():
+  model = model_lib.build_spec(model_lib.FootpadParams()).compile()
+  model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER  # explicit springs at 1 ms: diverge
+  model.actuator_gainprm[:, 0] = 1e11
+  model.actuator_biasprm[:, 1] = -1e11
+  ep = trajectories.episode("x_stroke", 0.001, 0.005, 0.001, repeats=1)
+  with pytest.raises(footpad.SimulationError, match="MuJoCo warning|non-finite"):
+    footpad._run_episode(model, mujoco.MjData(model), ep)
+
+
+def test_every_effect_is_documented():
+  for e in FOOTPAD_EFFECTS.values():
+    assert len(e.doc) > 40
+
+
+def test_kernel_choice_changes_only_die_stress():
+  a, _ = footpad.simulate(dataclasses.replace(SMALL, effects=("friction",)))
+  b, _ = footpad.simulate(dataclasses.replace(SMALL, effects=("friction",),
+                                              kernel=layer.Kernel.HALFSPACE))
+  assert a.element_force.tobytes() == b.element_force.tobytes()
+  assert not np.array_equal(a.pressure, b.pressure)
