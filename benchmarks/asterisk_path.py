@@ -5,7 +5,6 @@ The LSANN and NN-only calibrators of the paper's Table I are not here yet (issue
 
 from __future__ import annotations
 
-import numpy as np
 
 from benchmarks import footpad_data
 from calibrate import linear, metrics

@@ -14,7 +14,8 @@ DESCRIPTION = "generate and cache the footpad's training and test recordings (pa
 
 def run(ctx) -> dict:
   out = {"recordings": {}, "timing": {}}
-  for name, scene in footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides).items():
+  scenes = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)
+  for name, scene in scenes.items():
     rec, timing = footpad.generate(scene, ctx.progress(f"{name} episodes"), ctx.use_cache)
     ranges = {ax: [float(rec.wrench[:, i].min()), float(rec.wrench[:, i].max())]
               for i, ax in enumerate("XYZ")}
@@ -38,5 +39,5 @@ def run(ctx) -> dict:
                 f"{timing.sensor_chain_cpu / timing.physics_cpu:.1%} of the physics' "
                 f"{timing.physics_cpu:.1f} thread-s; model + kernel {timing.build:.1f} s")
   out["samples"] = sum(r["samples"] for r in out["recordings"].values())
-  out["effects"] = list(footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)["train"].effects)
+  out["effects"] = list(scenes["train"].effects)
   return out

@@ -15,8 +15,7 @@ import sys
 import time
 from typing import Callable, Optional
 
-BENCHMARKS = ("footpad_dataset", "footpad_throughput")
-MAIN = "asterisk_path"
+BENCHMARKS = ("asterisk_path", "footpad_dataset", "footpad_throughput")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,17 +57,6 @@ def _module(name: str):
   return importlib.import_module(f"benchmarks.{name}")
 
 
-def _available() -> list[str]:
-  out = []
-  for name in BENCHMARKS + (MAIN,):
-    try:
-      _module(name)
-      out.append(name)
-    except ModuleNotFoundError:
-      pass
-  return out
-
-
 def _parse_sets(items: list[str]) -> dict[str, str]:
   out = {}
   for item in items:
@@ -80,7 +68,7 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-  names = _available()
+  names = list(BENCHMARKS)
   parser = argparse.ArgumentParser(
       prog="python -m benchmarks.run",
       description="Run a named benchmark of the tactile-sensor testbench and write "

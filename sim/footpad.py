@@ -154,6 +154,13 @@ class SimulationError(RuntimeError):
   """MuJoCo reported a warning (instability, contact overflow) or produced non-finite data."""
 
 
+def compile_model(scene: FootpadScene) -> mujoco.MjModel:
+  """The scene's MuJoCo model, with the model effects it lists."""
+  effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
+  return model_lib.build_spec(scene.params, friction="friction" in effects,
+                              viscoelastic="viscoelastic" in effects).compile()
+
+
 def press_depth(scene: FootpadScene, kernel: np.ndarray) -> float:
   """Depth at which the first die saturates under a uniform press, capped at the strain limit."""
   if scene.press_depth is not None:
@@ -233,9 +240,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   scene.validate()
   t0 = time.perf_counter()
   effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
-  spec = model_lib.build_spec(scene.params, friction="friction" in effects,
-                              viscoelastic="viscoelastic" in effects)
-  model = spec.compile()
+  model = compile_model(scene)
   kernel = layer.die_kernel(scene.params, scene.kernel)
   eps = episodes(scene, kernel)
   threads = threads or min(os.cpu_count() or 1, len(eps))
@@ -317,9 +322,7 @@ def generate(scene: FootpadScene, progress: Optional[Progress] = None,
 def bare_step_rate(scene: FootpadScene, steps: int = 3000) -> float:
   """Steps/s of plain `mj_step` on the scene's model with sensors disabled, one thread,
   pressing at the deepest z level (the reference for `footpad_throughput`)."""
-  effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
-  model = model_lib.build_spec(scene.params, friction="friction" in effects,
-                               viscoelastic="viscoelastic" in effects).compile()
+  model = compile_model(scene)
   model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SENSOR
   data = mujoco.MjData(model)
   z = max(scene.z_levels) if scene.z_levels else 0.001
