@@ -15,7 +15,7 @@ import sys
 import time
 from typing import Callable, Optional
 
-BENCHMARKS = ("asterisk_path", "footpad_dataset", "footpad_throughput")
+BENCHMARKS = ("asterisk_path", "footpad_dataset", "footpad_kernels", "footpad_throughput")
 
 
 @dataclasses.dataclass(frozen=True)

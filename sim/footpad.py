@@ -158,14 +158,15 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   """The scene's MuJoCo model, with the model effects it lists."""
   effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
   return model_lib.build_spec(scene.params, friction="friction" in effects,
-                              viscoelastic="viscoelastic" in effects).compile()
+                              viscoelastic="viscoelastic" in effects,
+                              profile=layer.stiffness_profile(scene.params)).compile()
 
 
 def press_depth(scene: FootpadScene, kernel: np.ndarray) -> float:
   """Depth at which the first die saturates under a uniform press, capped at the strain limit."""
   if scene.press_depth is not None:
     return scene.press_depth
-  kz = scene.params.element_stiffness()[:, 2]
+  kz = scene.params.element_stiffness(layer.stiffness_profile(scene.params))[:, 2]
   pa_per_m = np.max(kernel[:, :, 2] @ kz)
   # 5 % past the linear estimate: contact penetration makes the pad ~2 % softer than E*A/h.
   depth = 1.05 * sensor_chain.saturation_pressure(scene.adc) / pa_per_m

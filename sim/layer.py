@@ -100,6 +100,7 @@ class LayerSolution:
   zs: np.ndarray
   nu: float
   u: np.ndarray
+  stiffness: scipy.sparse.csc_matrix
 
   def _element_szz(self, point, idx, lam, mu) -> np.ndarray:
     nx, ny = len(self.xs), len(self.ys)
@@ -138,7 +139,8 @@ class LayerSolution:
 
 
 def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
-                loads: np.ndarray, symmetric_xy: bool = False) -> LayerSolution:
+                loads: np.ndarray, symmetric_xy: bool = False,
+                pressed: tuple[float, float, float] | None = None) -> LayerSolution:
   """Solves a linear-elastic block fixed on its top face (z = zs[-1]).
 
   Args:
@@ -147,8 +149,10 @@ def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
     loads: (num_nodes * 3, num_cases) nodal forces, N; node index ix + nx*(iy + ny*iz).
     symmetric_xy: the block is the quarter x >= 0, y >= 0 of a body symmetric about the
       planes x = 0 and y = 0 (u_x = 0 on x = 0, u_y = 0 on y = 0); valid for normal loads.
+    pressed: a rigid plate stuck to the face z = 0 moves it by this displacement, m (e.g.
+      (0, 0, 1): pressed 1 m into the block), in one extra load case appended after `loads`.
   Returns:
-    The displacements for E = 1 Pa.
+    The displacements for E = 1 Pa; the reactions of the pressed face are `k @ u`.
   """
   xs, ys, zs = (np.asarray(c, dtype=float) for c in (xs, ys, zs))
   nx, ny, nz = len(xs), len(ys), len(zs)
@@ -181,12 +185,19 @@ def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
     node = np.arange(nx * ny * nz).reshape(nz, ny, nx).transpose(2, 1, 0)
     fixed[3 * node[ix == 0]] = True
     fixed[3 * node[iy == 0] + 1] = True
+  loads = np.asarray(loads, dtype=float)
+  u = np.zeros((ndof, loads.shape[1] + (pressed is not None)))
+  if pressed is not None:
+    face = np.arange(3 * nx * ny)
+    fixed[face] = True
+    for c in range(3):
+      u[face[c::3], -1] = pressed[c]
+    loads = np.column_stack([loads, -(k @ u[:, -1])])
   free = np.flatnonzero(~fixed)
   kff = k[free][:, free].tocsc()
   lu = scipy.sparse.linalg.splu(kff, permc_spec="COLAMD")
-  u = np.zeros((ndof, loads.shape[1]))
-  u[free] = lu.solve(np.asarray(loads, dtype=float)[free])
-  return LayerSolution(xs, ys, zs, nu, u)
+  u[free] = lu.solve(loads[free])
+  return LayerSolution(xs, ys, zs, nu, u, k)
 
 
 def patch_loads(xs: np.ndarray, ys: np.ndarray, nz: int,
@@ -241,13 +252,18 @@ def _patches(params: FootpadParams) -> list[tuple[float, float, float, float]]:
           for cx, cy in params.element_centres()]
 
 
-def bonded_layer_kernel(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
-  """(num_dies, num_elements, 3) die pressure (Pa) per newton of element force."""
+def _grid(params: FootpadParams, mesh: LayerMesh):
+  """Node coordinates of the block under the pad: patch edges fall on grid lines."""
   xs = np.linspace(-params.footprint[0] / 2, params.footprint[0] / 2,
                    params.grid[0] * mesh.subdivisions + 1)
   ys = np.linspace(-params.footprint[1] / 2, params.footprint[1] / 2,
                    params.grid[1] * mesh.subdivisions + 1)
-  zs = np.linspace(0.0, params.thickness, mesh.layers + 1)
+  return xs, ys, np.linspace(0.0, params.thickness, mesh.layers + 1)
+
+
+def bonded_layer_kernel(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_dies, num_elements, 3) die pressure (Pa) per newton of element force."""
+  xs, ys, zs = _grid(params, mesh)
   loads = patch_loads(xs, ys, len(zs), _patches(params))
   sol = solve_block(xs, ys, zs, params.poisson_ratio, loads)
   p = -sol.stress_zz(params.die_positions())  # (dies, 3 * elements)
@@ -284,19 +300,57 @@ def halfspace_kernel(params: FootpadParams, quadrature: int = 6) -> np.ndarray:
   return k.reshape(len(k), params.num_elements, len(sub), 3).mean(axis=2)
 
 
+def plate_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_elements, 3) shape of the element stiffness across the pad, mean 1 per axis.
+
+  The bonded block's face is moved by a rigid plate stuck to it, along x, y and z in turn;
+  each element's share of the plate's reaction (nodal reactions split by tributary area)
+  gives its share of the stiffness along that axis.
+  """
+  xs, ys, zs = _grid(params, mesh)
+  n = len(xs) * len(ys)
+  patches = _patches(params)
+  # patch_loads' z columns hold each face node's area share in each patch
+  share = patch_loads(xs, ys, len(zs), patches)[2:3 * n:3, 2::3]
+  share = share / share.sum(axis=1, keepdims=True)
+  out = np.empty((params.num_elements, 3))
+  for c in range(3):
+    move = np.zeros(3)
+    move[c] = 1.0
+    sol = solve_block(xs, ys, zs, params.poisson_ratio, np.zeros((3 * n * len(zs), 0)),
+                      pressed=tuple(move))
+    reaction = (sol.stiffness @ sol.u[:, -1])[c:3 * n:3]
+    out[:, c] = share.T @ reaction
+  return out / out.mean(axis=0)
+
+
+def _cached(kind: str, key: dict, compute) -> np.ndarray:
+  """A finite-element result from the on-disk cache, computed and stored on a miss."""
+  path = recording.cache_dir() / kind / (recording.content_key(key) + ".npy")
+  if path.exists():
+    return np.load(path)
+  value = compute()
+  path.parent.mkdir(parents=True, exist_ok=True)
+  recording.atomic_write(path, lambda f: np.save(f, value))
+  return value
+
+
+def _layer_key(params: FootpadParams, mesh: LayerMesh) -> dict:
+  return {"footprint": params.footprint, "grid": params.grid, "thickness": params.thickness,
+          "nu": params.poisson_ratio, "dies": params.die_positions().round(9).tolist(),
+          "mesh": dataclasses.asdict(mesh), "version": 1}
+
+
 def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
                mesh: LayerMesh = LayerMesh()) -> np.ndarray:
   """The kernel of the given kind; finite-element kernels are cached on disk by content hash."""
   if kernel is Kernel.HALFSPACE:
     return halfspace_kernel(params)
-  key = {"footprint": params.footprint, "grid": params.grid,
-                    "thickness": params.thickness, "nu": params.poisson_ratio,
-                    "dies": params.die_positions().round(9).tolist(),
-                    "mesh": dataclasses.asdict(mesh), "version": 1}
-  path = recording.cache_dir() / "kernels" / (recording.content_key(key) + ".npy")
-  if path.exists():
-    return np.load(path)
-  g = bonded_layer_kernel(params, mesh)
-  path.parent.mkdir(parents=True, exist_ok=True)
-  recording.atomic_write(path, lambda f: np.save(f, g))
-  return g
+  return _cached("kernels", _layer_key(params, mesh), lambda: bonded_layer_kernel(params, mesh))
+
+
+def stiffness_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray | None:
+  """The profile that `params.stiffness_profile` asks for (None for uniform), cached."""
+  if params.stiffness_profile == "uniform":
+    return None
+  return _cached("profiles", _layer_key(params, mesh), lambda: plate_profile(params, mesh))

@@ -103,3 +103,17 @@ def test_viscoelastic_relaxes_with_its_time_constant():
   t1 = int(round(P.relaxation_time / P.timestep))
   ratio = excess[200 + t1] / excess[200]
   assert ratio == pytest.approx(math.exp(-1.0), abs=0.08)
+
+
+def test_bonded_plate_profile_keeps_totals_and_softens_edges():
+  from sim import layer
+  profile = layer.stiffness_profile(P)
+  np.testing.assert_allclose(profile.mean(axis=0), 1.0, rtol=1e-12)
+  kz = profile[:, 2].reshape(P.grid)
+  assert kz[0, 0] < 0.7 < 1.4 < kz[P.grid[0] // 2, P.grid[1] // 2]  # corners soft, centre stiff
+  model = model_lib.build_spec(P, profile=profile).compile()
+  data = mujoco.MjData(model)
+  _press(model, data, 0.001)
+  indentation = -data.qpos[model_lib.cnc_qpos_index(model)[2]]
+  expected = P.youngs_modulus * P.footprint[0] * P.footprint[1] / P.thickness * indentation
+  assert data.sensordata[2] == pytest.approx(expected, rel=0.05)
