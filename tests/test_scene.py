@@ -94,7 +94,8 @@ def test_cli_errors_are_one_line(capsys):
   assert cli.main(["--list"]) == 0
 
 
-def test_mujoco_instability_becomes_an_error():
+def test_mujoco_instability_becomes_an_error(tmp_path, monkeypatch):
+  monkeypatch.chdir(tmp_path)  # MuJoCo writes MUJOCO_LOG.TXT beside the process
   model = model_lib.build_spec(model_lib.FootpadParams()).compile()
   model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER  # explicit springs at 1 ms: diverge
   model.actuator_gainprm[:, 0] = 1e11
