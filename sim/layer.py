@@ -140,7 +140,7 @@ class LayerSolution:
 
 def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
                 loads: np.ndarray, symmetric_xy: bool = False,
-                pressed: tuple[float, float, float] | None = None) -> LayerSolution:
+                pressed: tuple[tuple[float, float, float], ...] = ()) -> LayerSolution:
   """Solves a linear-elastic block fixed on its top face (z = zs[-1]).
 
   Args:
@@ -149,8 +149,9 @@ def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
     loads: (num_nodes * 3, num_cases) nodal forces, N; node index ix + nx*(iy + ny*iz).
     symmetric_xy: the block is the quarter x >= 0, y >= 0 of a body symmetric about the
       planes x = 0 and y = 0 (u_x = 0 on x = 0, u_y = 0 on y = 0); valid for normal loads.
-    pressed: a rigid plate stuck to the face z = 0 moves it by this displacement, m (e.g.
-      (0, 0, 1): pressed 1 m into the block), in one extra load case appended after `loads`.
+    pressed: rigid-plate displacements of the face z = 0, m (e.g. (0, 0, 1): pressed 1 m into
+      the block), the plate stuck to the face; one extra load case each, after `loads`. With
+      any, the face is held in every load case.
   Returns:
     The displacements for E = 1 Pa; the reactions of the pressed face are `k @ u`.
   """
@@ -186,13 +187,14 @@ def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
     fixed[3 * node[ix == 0]] = True
     fixed[3 * node[iy == 0] + 1] = True
   loads = np.asarray(loads, dtype=float)
-  u = np.zeros((ndof, loads.shape[1] + (pressed is not None)))
-  if pressed is not None:
+  u = np.zeros((ndof, loads.shape[1] + len(pressed)))
+  if pressed:
     face = np.arange(3 * nx * ny)
     fixed[face] = True
-    for c in range(3):
-      u[face[c::3], -1] = pressed[c]
-    loads = np.column_stack([loads, -(k @ u[:, -1])])
+    for j, move in enumerate(pressed, start=loads.shape[1]):
+      for c in range(3):
+        u[face[c::3], j] = move[c]
+    loads = np.column_stack([loads, -(k @ u[:, loads.shape[1]:])])
   free = np.flatnonzero(~fixed)
   kff = k[free][:, free].tocsc()
   lu = scipy.sparse.linalg.splu(kff, permc_spec="COLAMD")
@@ -309,18 +311,13 @@ def plate_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.nd
   """
   xs, ys, zs = _grid(params, mesh)
   n = len(xs) * len(ys)
-  patches = _patches(params)
   # patch_loads' z columns hold each face node's area share in each patch
-  share = patch_loads(xs, ys, len(zs), patches)[2:3 * n:3, 2::3]
+  share = patch_loads(xs, ys, len(zs), _patches(params))[2:3 * n:3, 2::3]
   share = share / share.sum(axis=1, keepdims=True)
-  out = np.empty((params.num_elements, 3))
-  for c in range(3):
-    move = np.zeros(3)
-    move[c] = 1.0
-    sol = solve_block(xs, ys, zs, params.poisson_ratio, np.zeros((3 * n * len(zs), 0)),
-                      pressed=tuple(move))
-    reaction = (sol.stiffness @ sol.u[:, -1])[c:3 * n:3]
-    out[:, c] = share.T @ reaction
+  sol = solve_block(xs, ys, zs, params.poisson_ratio, np.zeros((3 * n * len(zs), 0)),
+                    pressed=tuple(tuple(row) for row in np.eye(3)))
+  reaction = sol.stiffness @ sol.u  # (ndof, 3): one column per direction moved
+  out = np.stack([share.T @ reaction[c:3 * n:3, c] for c in range(3)], axis=1)
   return out / out.mean(axis=0)
 
 

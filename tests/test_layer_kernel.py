@@ -93,3 +93,30 @@ def test_middle_row_blind_to_y_shear():
   under_x = np.abs(g[middle, :, 0].sum(axis=1))
   under_y = np.abs(g[middle, :, 1].sum(axis=1))
   assert np.all(under_y < 0.1 * under_x)
+
+
+def _pressed_stiffness(width, thickness, nu, cells, layers, axis=2):
+  """Reaction of a square bonded block per unit displacement of its stuck face, E = 1."""
+  xs = np.linspace(-width / 2, width / 2, cells + 1)
+  zs = np.linspace(0, thickness, layers + 1)
+  n = len(xs) ** 2
+  move = np.zeros(3)
+  move[axis] = 1.0
+  sol = layer.solve_block(xs, xs, zs, nu, np.zeros((3 * n * len(zs), 0)), pressed=(tuple(move),))
+  return (sol.stiffness @ sol.u[:, -1])[axis:3 * n:3].sum()
+
+
+def test_pressed_block_without_poisson_coupling_is_EA_over_h():
+  # nu = 0: uniaxial stress, exactly representable by the elements
+  assert _pressed_stiffness(0.03, 0.01, 0.0, 6, 3) == pytest.approx(0.03**2 / 0.01, rel=1e-9)
+
+
+def test_wide_pressed_block_tends_to_uniaxial_strain():
+  # a thin bonded layer cannot bulge: constrained modulus E (1 - nu) / ((1 + nu)(1 - 2 nu))
+  nu, width, h = 0.3, 0.1, 0.001
+  m = (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+  assert _pressed_stiffness(width, h, nu, 50, 2) == pytest.approx(m * width**2 / h, rel=0.05)
+  # and its shear stiffness tends to G A / h
+  g = 1 / (2 * (1 + nu))
+  assert _pressed_stiffness(width, h, nu, 50, 2, axis=0) == pytest.approx(g * width**2 / h,
+                                                                          rel=0.05)
