@@ -1,65 +1,130 @@
-"""Linear least squares (LSANN paper Eqns 1-4, with a bias column), solved by pivoted QR on
-standardised features with an explicit rank cut-off: never by forming (V^T V)^-1."""
+"""Linear and polynomial least squares from die counts to forces.
+
+`fit_linear` is the LSANN paper's multivariate least squares (Eqns 1-4, with a bias column);
+with `degree=3` it is the force-sensing-shell paper's polynomial pseudoinverse (features s,
+s^2, s^3 per channel, its Eqns 4-9). Both solve through standardised features by pivoted QR
+or by SVD with an explicit rank cut-off, never by forming (V^T V)^-1. Powers are taken of the
+standardised counts: the same polynomial space as powers of raw 12-bit counts (cubes up to
+7e10) without their 1e15 column-scale spread.
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 import warnings
 
 import numpy as np
 import scipy.linalg
 
 
+class Method(enum.Enum):
+  QR = "qr"
+  SVD = "svd"
+
+
 @dataclasses.dataclass(frozen=True)
 class LinearFit:
-  """F ~ ((V - mean) / scale) @ coef + bias.
+  """F ~ features(V) @ coef + bias, features = powers 1..degree of (V - mean) / scale.
 
   Attributes:
-    mean, scale: (C,) feature standardisation; scale 0 marks a dropped (constant) channel.
-    coef: (C, A) coefficients on standardised features.
-    bias: (A,) intercept.
-    rank: numerical rank used.
+    mean, scale: (C,) standardisation of the counts; scale 0 marks a dropped constant channel.
+    coef: (C * degree, A) coefficients, powers of channel c in rows c, C + c, 2C + c...
+    bias: (A,) intercept, force units.
+    rank: numerical rank used, counting the bias column.
+    degree: polynomial degree (1: linear).
   """
   mean: np.ndarray
   scale: np.ndarray
   coef: np.ndarray
   bias: np.ndarray
   rank: int
+  degree: int = 1
+
+  def features(self, v: np.ndarray) -> np.ndarray:
+    """(N, C * degree) standardised counts and their powers; dropped channels give 0."""
+    v = check_array(v, "counts", self.mean.shape[0])
+    z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
+    return np.concatenate([z**d for d in range(1, self.degree + 1)], axis=1)
 
   def predict(self, v: np.ndarray) -> np.ndarray:
-    v = np.asarray(v, dtype=np.float64)
-    z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
-    return z @ self.coef + self.bias
+    """(N, A) forces from (N, C) counts."""
+    return self.features(v) @ self.coef + self.bias
 
 
-def fit_linear(v: np.ndarray, f: np.ndarray, rcond: float = 1e-10) -> LinearFit:
-  """Least-squares fit of f (N, A) on counts v (N, C) plus a bias."""
-  v = np.asarray(v, dtype=np.float64)
-  f = np.asarray(f, dtype=np.float64)
-  if v.ndim != 2 or f.ndim != 2 or len(v) != len(f):
-    raise ValueError(f"counts {v.shape} and forces {f.shape} must be (N, C) and (N, A) with the "
-                     f"same N")
-  bad = ~(np.isfinite(v).all(axis=1) & np.isfinite(f).all(axis=1))
+def check_array(a, name: str, columns: int | None = None) -> np.ndarray:
+  """A finite 2-D float64 array, or a ValueError naming `name` and what is wrong."""
+  a = np.asarray(a)
+  if a.dtype == np.float32:
+    warnings.warn(f"{name} is float32: promoted to float64 (fits compute in float64)")
+  if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+    raise ValueError(f"{name} must be numeric, got dtype {a.dtype}")
+  a = a.astype(np.float64)
+  if a.ndim != 2:
+    raise ValueError(f"{name} must be 2-D (samples, channels), got shape {a.shape}")
+  if columns is not None and a.shape[1] != columns:
+    raise ValueError(f"{name} has {a.shape[1]} columns: the fit expects {columns}")
+  bad = ~np.isfinite(a).all(axis=1)
   if bad.any():
-    raise ValueError(f"{bad.sum()} of {len(v)} rows hold NaN or inf: drop them first")
-  if len(v) <= v.shape[1] + 1:
-    raise ValueError(f"{len(v)} samples cannot fit {v.shape[1] + 1} parameters per axis")
+    raise ValueError(f"{name}: {bad.sum()} of {len(a)} rows hold NaN or inf "
+                     f"(first at row {np.flatnonzero(bad)[0]}); drop them first")
+  return a
+
+
+def check_pair(v, f) -> tuple[np.ndarray, np.ndarray]:
+  """Counts (N, C) and forces (N, A) checked as a training pair."""
+  v, f = check_array(v, "counts"), check_array(f, "forces")
+  if len(v) != len(f):
+    raise ValueError(f"counts have {len(v)} samples but forces have {len(f)}: they must match")
+  return v, f
+
+
+def fit_linear(v: np.ndarray, f: np.ndarray, degree: int = 1, method: Method = Method.QR,
+               rcond: float = 1e-10) -> LinearFit:
+  """Least-squares fit of forces f (N, A) on counts v (N, C) plus a bias.
+
+  Args:
+    v: (N, C) counts (any real units).
+    f: (N, A) forces, N.
+    degree: 1 for the linear fit, 3 for the cubic pseudoinverse.
+    method: pivoted QR, or SVD; both drop directions below `rcond` x the largest.
+    rcond: relative cut-off on R's diagonal (QR) or the singular values (SVD).
+  Warns when a channel is constant or the features are rank-deficient, naming what it dropped.
+  """
+  v, f = check_pair(v, f)
+  if not (isinstance(degree, int) and 1 <= degree <= 5):
+    raise ValueError(f"degree={degree!r} is out of range: allowed integers 1..5")
+  method = Method(method)
+  n_par = v.shape[1] * degree + 1
+  if len(v) <= n_par:
+    raise ValueError(f"{len(v)} samples cannot fit {n_par} parameters per axis: "
+                     f"need more than {n_par}")
   mean = v.mean(axis=0)
   scale = v.std(axis=0)
   dead = scale <= 1e-12 * np.maximum(np.abs(mean), 1.0)
   if dead.any():
     warnings.warn(f"channels {np.flatnonzero(dead).tolist()} are constant: dropped from the fit")
-  scale = np.where(dead, 0.0, scale)
-  z = np.divide(v - mean, scale, out=np.zeros_like(v), where=scale > 0)
-  a = np.column_stack([z[:, ~dead], np.ones(len(z))])
-  q, r, perm = scipy.linalg.qr(a, mode="economic", pivoting=True)
-  d = np.abs(np.diag(r))
-  rank = int(np.sum(d > rcond * d[0]))
+  fit = LinearFit(mean, np.where(dead, 0.0, scale), np.zeros((0, 0)), np.zeros(0), 0, degree)
+  keep = np.tile(~dead, degree)
+  a = np.column_stack([fit.features(v)[:, keep], np.ones(len(v))])
+  sol, rank = _lstsq(a, f, method, rcond)
   if rank < a.shape[1]:
     warnings.warn(f"features are rank-deficient ({rank} of {a.shape[1]}): "
                   f"{a.shape[1] - rank} direction(s) dropped")
-  sol = np.zeros((a.shape[1], f.shape[1]))
-  sol[perm[:rank]] = scipy.linalg.solve_triangular(r[:rank, :rank], q[:, :rank].T @ f)
-  coef = np.zeros((v.shape[1], f.shape[1]))
-  coef[~dead] = sol[:-1]
-  return LinearFit(mean, scale, coef, sol[-1], rank)
+  coef = np.zeros((len(keep), f.shape[1]))
+  coef[keep] = sol[:-1]
+  return dataclasses.replace(fit, coef=coef, bias=sol[-1], rank=rank)
+
+
+def _lstsq(a: np.ndarray, f: np.ndarray, method: Method, rcond: float):
+  """Solution of a @ x ~ f (QR: basic, SVD: minimum-norm; equal at full rank) and its rank."""
+  if method is Method.QR:
+    q, r, perm = scipy.linalg.qr(a, mode="economic", pivoting=True)
+    d = np.abs(np.diag(r))
+    rank = int(np.sum(d > rcond * d[0]))
+    sol = np.zeros((a.shape[1], f.shape[1]))
+    sol[perm[:rank]] = scipy.linalg.solve_triangular(r[:rank, :rank], q[:, :rank].T @ f)
+    return sol, rank
+  u, s, vt = scipy.linalg.svd(a, full_matrices=False)
+  rank = int(np.sum(s > rcond * s[0]))
+  return vt[:rank].T @ ((u[:, :rank].T @ f) / s[:rank, None]), rank

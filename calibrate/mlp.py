@@ -1,0 +1,327 @@
+"""One-hidden-layer tanh network trained by Levenberg-Marquardt in JAX (MATLAB `trainlm` style).
+
+The network maps inputs x (N, D) to outputs y (N, O) through
+  y = W2 @ [tanh(W1 @ [x; 1]); 1],
+with inputs and outputs scaled to [-1, 1] (MATLAB `mapminmax`). Parameters are one vector
+theta = [W1 (H, D+1) row-major, W2 (O, H+1) row-major], P = H (D+1) + O (H+1).
+
+`normal_equations` forms J^T J and J^T e from the layer structure: with A = [x, 1],
+g = 1 - h^2 and Z = g (x) A (N, H (D+1)), the W1 block is (Z^T Z) * kron(W2^T W2, 1), the
+cross block is Z^T [h, 1] scaled by W2, and the W2 block is kron(I_O, [h,1]^T [h,1]); no
+(N O, P) Jacobian is materialised. Everything is float64 (`calibrate` enables JAX's x64).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import time
+from typing import Callable, Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from calibrate import linear
+
+jax.config.update("jax_enable_x64", True)
+
+
+class Stop(enum.Enum):
+  """Why training ended (MATLAB trainlm's stopping rules)."""
+  MAX_EPOCHS = "maximum epochs reached"
+  VALIDATION = "validation error rose max_fail times in a row"
+  MIN_GRADIENT = "gradient below min_grad"
+  MU_MAX = "mu above mu_max"
+  GOAL = "training MSE reached goal"
+
+
+@dataclasses.dataclass(frozen=True)
+class LMConfig:
+  """Levenberg-Marquardt settings; defaults are MATLAB trainlm's.
+
+  Attributes:
+    hidden: hidden tanh units (paper: 10).
+    mu, mu_dec, mu_inc, mu_max: damping start, factor on success, on failure, and limit.
+    max_fail: validation failures in a row that stop training.
+    min_grad: stop when the gradient norm of the (scaled) MSE falls below this.
+    epochs: maximum accepted-or-failed LM epochs.
+    goal: stop when the scaled training MSE falls to this.
+    backend: "own" (this module) or "jaxopt" (jaxopt.LevenbergMarquardt, same problem and
+      start, one LM iteration per epoch so validation stopping applies alike).
+  """
+  hidden: int = 10
+  mu: float = 1e-3
+  mu_dec: float = 0.1
+  mu_inc: float = 10.0
+  mu_max: float = 1e10
+  max_fail: int = 6
+  min_grad: float = 1e-7
+  epochs: int = 1000
+  goal: float = 0.0
+  backend: str = "own"
+
+  def validate(self) -> None:
+    if not (isinstance(self.hidden, (int, np.integer)) and 1 <= self.hidden <= 1000):
+      raise ValueError(f"hidden={self.hidden!r} is out of range: allowed integers 1..1000")
+    for name in ("mu", "mu_max", "min_grad"):
+      if not getattr(self, name) > 0:
+        raise ValueError(f"{name}={getattr(self, name)!r} must be > 0")
+    if not 0 < self.mu_dec < 1 < self.mu_inc:
+      raise ValueError(f"need 0 < mu_dec < 1 < mu_inc, got {self.mu_dec}, {self.mu_inc}")
+    if not (isinstance(self.epochs, (int, np.integer)) and self.epochs >= 1):
+      raise ValueError(f"epochs={self.epochs!r} must be an integer >= 1")
+    if not (isinstance(self.max_fail, (int, np.integer)) and self.max_fail >= 1):
+      raise ValueError(f"max_fail={self.max_fail!r} must be an integer >= 1")
+    if self.backend not in ("own", "jaxopt"):
+      raise ValueError(f"backend={self.backend!r} is unknown: allowed 'own', 'jaxopt'")
+
+
+@dataclasses.dataclass(frozen=True)
+class MinMax:
+  """Affine map of each column from [lo, hi] to [-1, 1]; constant columns map to 0."""
+  lo: np.ndarray
+  hi: np.ndarray
+
+  @staticmethod
+  def fit(a: np.ndarray) -> "MinMax":
+    return MinMax(a.min(axis=0), a.max(axis=0))
+
+  def _half(self):
+    span = self.hi - self.lo
+    return np.where(span > 0, span / 2, 1.0), (self.hi + self.lo) / 2
+
+  def forward(self, a):
+    half, mid = self._half()
+    return (a - mid) / half
+
+  def inverse(self, s):
+    half, mid = self._half()
+    return s * half + mid
+
+
+@dataclasses.dataclass(frozen=True)
+class MLP:
+  """A fitted network: weights and the input/output scalings (plain arrays).
+
+  Attributes:
+    w1: (H, D + 1) hidden weights, bias last.  w2: (O, H + 1) output weights, bias last.
+    x_scale, y_scale: mapminmax of inputs and outputs.
+  """
+  w1: np.ndarray
+  w2: np.ndarray
+  x_scale: MinMax
+  y_scale: MinMax
+
+  def predict(self, x: np.ndarray) -> np.ndarray:
+    x = linear.check_array(x, "inputs", self.w1.shape[1] - 1)
+    s = np.asarray(_forward(_pack(self.w1, self.w2), jnp.asarray(self.x_scale.forward(x)),
+                            self.w1.shape[0], x.shape[1], self.w2.shape[0]))
+    return self.y_scale.inverse(s)
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainResult:
+  """A trained network and how training went.
+
+  Attributes:
+    net: the weights at the best validation epoch.
+    epochs: epochs run.
+    stop: why training ended.
+    train_mse, val_mse: (epochs + 1,) MSE per epoch in output units (N^2 for forces),
+      epoch 0 being the start point.
+    seconds: wall time of the epochs after compilation, s.  compile_seconds: JIT time, s.
+    best_epoch: epoch whose weights `net` holds.
+  """
+  net: MLP
+  epochs: int
+  stop: Stop
+  train_mse: np.ndarray
+  val_mse: np.ndarray
+  seconds: float
+  compile_seconds: float
+  best_epoch: int
+
+
+def _pack(w1, w2):
+  return jnp.concatenate([jnp.ravel(w1), jnp.ravel(w2)])
+
+
+def _unpack(theta, h, d, o):
+  n1 = h * (d + 1)
+  return theta[:n1].reshape(h, d + 1), theta[n1:].reshape(o, h + 1)
+
+
+def _hidden(theta, x, h, d, o):
+  w1, w2 = _unpack(theta, h, d, o)
+  a = jnp.concatenate([x, jnp.ones((x.shape[0], 1), x.dtype)], axis=1)
+  hid = jnp.tanh(a @ w1.T)
+  return a, hid, jnp.concatenate([hid, jnp.ones((x.shape[0], 1), x.dtype)], axis=1), w2
+
+
+def _forward(theta, x, h, d, o):
+  return _hidden(theta, x, h, d, o)[2] @ _hidden(theta, x, h, d, o)[3].T
+
+
+def normal_equations(theta, x, y, h: int):
+  """(J^T J (P, P), J^T e (P,), sum of squared errors) for e = y - net(x), from the layers.
+
+  J is the Jacobian of the stacked outputs (N O) with respect to theta.
+  """
+  n, d = x.shape
+  o = y.shape[1]
+  a, hid, hh, w2 = _hidden(theta, x, h, d, o)
+  e = y - hh @ w2.T
+  g = 1.0 - hid**2
+  s = w2[:, :h]  # (O, H) output weights without bias
+  z = (g[:, :, None] * a[:, None, :]).reshape(n, h * (d + 1))
+  ones = jnp.ones((d + 1,), x.dtype)
+  b11 = (z.T @ z) * jnp.kron(s.T @ s, jnp.outer(ones, ones))
+  zh = z.T @ hh  # (H (D+1), H+1)
+  b12 = jnp.concatenate([zh * jnp.kron(s[k], ones)[:, None] for k in range(o)], axis=1)
+  b22 = jnp.kron(jnp.eye(o, dtype=x.dtype), hh.T @ hh)
+  jtj = jnp.block([[b11, b12], [b12.T, b22]])
+  g1 = (((e @ s) * g)[:, :, None] * a[:, None, :]).sum(axis=0).ravel()
+  g2 = (e.T @ hh).ravel()
+  return jtj, jnp.concatenate([g1, g2]), jnp.sum(e**2)
+
+
+def residuals(theta, x, y, h: int):
+  """(N O,) residuals e = y - net(x), outputs stacked per sample."""
+  return (y - _forward(theta, x, h, x.shape[1], y.shape[1])).ravel()
+
+
+def nguyen_widrow(key, d: int, h: int, o: int) -> jnp.ndarray:
+  """Start point: Nguyen-Widrow hidden layer for inputs in [-1, 1], small random outputs.
+
+  Hidden weights get random directions of norm 0.7 H^(1/D) and biases spread over
+  [-norm, norm] so the units' active regions tile the input box (MATLAB `initnw`).
+  """
+  k1, k2, k3 = jax.random.split(key, 3)
+  beta = 0.7 * h ** (1.0 / d)
+  w = jax.random.uniform(k1, (h, d), jnp.float64, -1.0, 1.0)
+  w = beta * w / jnp.linalg.norm(w, axis=1, keepdims=True)
+  b = beta * jnp.linspace(-1.0, 1.0, h) * jnp.sign(jax.random.uniform(k2, (h,), jnp.float64,
+                                                                       -1.0, 1.0))
+  w2 = jax.random.uniform(k3, (o, h + 1), jnp.float64, -1.0, 1.0) * (1.0 / np.sqrt(h + 1))
+  return _pack(jnp.column_stack([w, b]), w2)
+
+
+def _lm_epoch_fn(h: int, cfg: LMConfig):
+  """jit-compiled epoch: try damped steps until one lowers the error or mu passes mu_max."""
+
+  def epoch(theta, mu, x, y):
+    jtj, jte, sse = normal_equations(theta, x, y, h)
+    eye = jnp.eye(jtj.shape[0], dtype=jtj.dtype)
+
+    def try_step(state):
+      _, mu, _, _ = state
+      c, low = jax.scipy.linalg.cho_factor(jtj + mu * eye)
+      cand = theta + jax.scipy.linalg.cho_solve((c, low), jte)
+      sse_new = jnp.sum(residuals(cand, x, y, h) ** 2)
+      ok = sse_new < sse  # NaN from a failed factorisation counts as a failure
+      return cand, jnp.where(ok, mu * cfg.mu_dec, mu * cfg.mu_inc), sse_new, ok
+
+    def keep_trying(state):
+      return (~state[3]) & (state[1] <= cfg.mu_max)
+
+    cand, mu, sse_new, ok = jax.lax.while_loop(
+        keep_trying, try_step, (theta, mu, sse, jnp.array(False)))
+    theta = jnp.where(ok, cand, theta)
+    grad = 2.0 * jnp.linalg.norm(jte) / y.size
+    return theta, mu, jnp.where(ok, sse_new, sse), grad
+
+  return jax.jit(epoch)
+
+
+def _jaxopt_epoch_fn(h: int, cfg: LMConfig):
+  import jaxopt  # the baseline backend is optional at import time
+
+  solver = jaxopt.LevenbergMarquardt(lambda t, x, y: residuals(t, x, y, h), maxiter=1,
+                                     damping_parameter=cfg.mu, solver="cholesky",
+                                     materialize_jac=True)
+
+  def epoch(theta, state, x, y):
+    theta, state = solver.update(theta, state, x, y)
+    sse = jnp.sum(residuals(theta, x, y, h) ** 2)
+    return theta, state, sse, 2.0 * jnp.linalg.norm(state.gradient) / y.size
+
+  return solver, jax.jit(epoch)
+
+
+def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
+          config: LMConfig = LMConfig(), seed: int = 0,
+          progress: Optional[Callable[[int, int], None]] = None,
+          start: Optional[np.ndarray] = None) -> TrainResult:
+  """Fits the network to (x, y), stopping on the validation set (x_val, y_val).
+
+  Args:
+    x, y: (N, D) inputs and (N, O) targets.  x_val, y_val: held-out validation samples.
+    config: LM settings.  seed: integer driving the Nguyen-Widrow start (JAX key).
+    progress: called as progress(epoch, config.epochs).
+    start: optional parameter vector to start from instead of Nguyen-Widrow.
+  """
+  config.validate()
+  x, y = linear.check_pair(x, y)
+  x_val, y_val = linear.check_pair(x_val, y_val)
+  if x_val.shape[1] != x.shape[1] or y_val.shape[1] != y.shape[1]:
+    raise ValueError(f"validation columns {x_val.shape[1]}/{y_val.shape[1]} differ from "
+                     f"training columns {x.shape[1]}/{y.shape[1]}")
+  h, d, o = int(config.hidden), x.shape[1], y.shape[1]
+  n_par = h * (d + 1) + o * (h + 1)
+  if y.size <= n_par:
+    raise ValueError(f"{len(x)} samples x {o} outputs cannot fit {n_par} network parameters")
+  if len(x_val) == 0:
+    raise ValueError("the validation set is empty: hold out some samples")
+  xs, ys = MinMax.fit(x), MinMax.fit(y)
+  xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
+  xvj = jnp.asarray(xs.forward(x_val))
+  theta = (nguyen_widrow(jax.random.key(seed), d, h, o) if start is None
+           else jnp.asarray(start, jnp.float64))
+  half = ys._half()[0]  # output units per scaled unit
+
+  fwd = jax.jit(_forward, static_argnums=(2, 3, 4))
+  half_j = jnp.asarray(half)
+  train_mse = jax.jit(lambda t: jnp.mean((residuals(t, xj, yj, h).reshape(-1, o) * half_j) ** 2))
+
+  def val_mse(t):
+    return float(np.mean((ys.inverse(np.asarray(fwd(t, xvj, h, d, o))) - y_val) ** 2))
+
+  t0 = time.perf_counter()
+  if config.backend == "own":
+    step = _lm_epoch_fn(h, config)
+    state = jnp.asarray(config.mu)
+  else:
+    solver, step = _jaxopt_epoch_fn(h, config)
+    state = solver.init_state(theta, xj, yj)
+  jax.block_until_ready(step(theta, state, xj, yj))  # compile on the start point
+  train_hist = [float(train_mse(theta))]
+  val_hist = [val_mse(theta)]
+  compile_s = time.perf_counter() - t0
+  best, best_epoch, fails, stop = theta, 0, 0, Stop.MAX_EPOCHS
+  t1 = time.perf_counter()
+  for ep in range(1, config.epochs + 1):
+    theta, state, sse, grad = step(theta, state, xj, yj)
+    train_hist.append(float(train_mse(theta)))
+    val_hist.append(val_mse(theta))
+    if progress:
+      progress(ep, config.epochs)
+    if val_hist[-1] < val_hist[best_epoch]:
+      best, best_epoch, fails = theta, ep, 0
+    else:
+      fails += 1
+    if config.backend == "own" and float(state) > config.mu_max:
+      stop = Stop.MU_MAX
+    elif fails >= config.max_fail:
+      stop = Stop.VALIDATION
+    elif float(grad) < config.min_grad:
+      stop = Stop.MIN_GRADIENT
+    elif float(sse) / y.size <= config.goal:
+      stop = Stop.GOAL
+    else:
+      continue
+    break
+  seconds = time.perf_counter() - t1
+  w1, w2 = (np.asarray(w) for w in _unpack(best, h, d, o))
+  return TrainResult(MLP(w1, w2, xs, ys), ep, stop, np.array(train_hist), np.array(val_hist),
+                     seconds, compile_s, best_epoch)
