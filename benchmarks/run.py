@@ -15,7 +15,8 @@ import sys
 import time
 from typing import Callable, Optional
 
-BENCHMARKS = ("asterisk_path", "footpad_dataset", "footpad_kernels", "footpad_throughput")
+BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "footpad_dataset",
+              "footpad_kernels", "footpad_throughput")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -20,3 +20,28 @@ def r2_pct(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
   ss_res = np.sum((truth - pred) ** 2, axis=0)
   ss_tot = np.sum((truth - np.mean(truth, axis=0)) ** 2, axis=0)
   return 100.0 * (1.0 - ss_res / ss_tot)
+
+
+def median_pct_error(pred: np.ndarray, truth: np.ndarray, threshold: float) -> np.ndarray:
+  """Median of |pred - truth| / |truth| x 100 over samples with |truth| > threshold, per column
+  (shell paper Table I: forces above 0.2 N, torques above 10 mN m). NaN where none qualify."""
+  pred, truth = np.asarray(pred), np.asarray(truth)
+  out = np.full(truth.shape[1], np.nan)
+  for c in range(truth.shape[1]):
+    keep = np.abs(truth[:, c]) > threshold
+    if keep.any():
+      out[c] = np.median(np.abs(pred[keep, c] - truth[keep, c]) / np.abs(truth[keep, c])) * 100
+  return out
+
+
+def worst_pct_of_range(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
+  """Largest |pred - truth| as % of the range of the truth, per column (shell paper Table I)."""
+  return 100.0 * np.max(np.abs(np.asarray(pred) - truth), axis=0) / np.ptp(truth, axis=0)
+
+
+def summary(pred: np.ndarray, truth: np.ndarray, axes, threshold: float = 0.2) -> dict:
+  """{axis: {rmse, nrmse_pct, r2_pct, median_pct, worst_pct}} for (N, len(axes)) forces, N."""
+  cols = {"rmse": rmse(pred, truth), "nrmse_pct": nrmse_pct(pred, truth),
+          "r2_pct": r2_pct(pred, truth), "median_pct": median_pct_error(pred, truth, threshold),
+          "worst_pct": worst_pct_of_range(pred, truth)}
+  return {ax: {k: float(v[i]) for k, v in cols.items()} for i, ax in enumerate(axes)}

@@ -32,8 +32,12 @@ class FootpadParams:
     grid: number of bristle elements along (X, Y). 6x8 keeps elements near square on the
       32x39 mm board and runs at ~5-7k steps/s (DESIGN.md, measured).
     footprint: pad size along (X, Y), m. The paper's PCB is 32 mm x 39 mm (Sec. II-A).
-    thickness: rubber thickness between PCB and contact face, m. Assumed 6 mm (DESIGN.md):
-      with E below it gives ~152 kN/m, i.e. ~228 N at 1.5 mm, the paper's ~221 N Z range.
+    thickness: rubber thickness between PCB and contact face, m. Not given in the paper; 13 mm
+      is where the finite-element block (bonded to the PCB, face stuck to the plate, the same
+      model that gives the die kernel) presses with the paper's ~221 N at the deepest 1.5 mm
+      training indentation (Sec. III-B, DESIGN.md): 144 kN/m, 2.06 x E*A/h because a bonded
+      near-incompressible layer cannot bulge freely. A 6 mm block, the earlier assumption
+      from E*A/h alone, is 4.5 x E*A/h in that model (~1020 N at 1.5 mm).
     youngs_modulus: Vytaflex 20 (Shore 20A), Pa; 0.73 MPa from Gent's relation.
     poisson_ratio: polyurethane rubber is nearly incompressible; 0.49.
     friction: Coulomb coefficient pad/plate. 0.8-1 is needed for the paper's ~220 N shear
@@ -45,28 +49,28 @@ class FootpadParams:
       Assumed 0.3, of the order of the loss factor of soft polyurethane at low frequency.
     die_x: X positions of the two die columns, m (assumed +-6.5 mm).
     die_y: Y positions of the three die rows, m (assumed -11/0/+11 mm).
-    die_depth: depth of the dies below the contact face, m (assumed 5 mm: 1 mm above the PCB).
+    die_depth: depth of the dies below the contact face, m: 1 mm above the PCB, the exposed
+      silicon of the machined-down MPXH6400A (assumed).
     tip_radius: radius of the contact sphere ending each element, m.
     timestep: simulation step, s; one step per 1 kHz sample (paper Sec. III-A).
-    cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at the 228 N peak.
+    cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at a ~220 N peak.
     cnc_mass: moving mass of each CNC axis (as joint armature), kg.
     relaxation_fraction: for the `viscoelastic` effect, the share of each element's normal
       stiffness that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
     relaxation_time: for the `viscoelastic` effect, the Maxwell arm's time constant, s.
       Assumed 1 s.
-    stiffness_profile: "bonded_plate" shapes the element rates like the tractions of the rubber
-      block, bonded to the PCB, under a rigid plate stuck to its face (finite elements,
-      `sim.layer.plate_profile`): a near-incompressible bonded layer is stiff in the middle
-      and soft at its free edges (x 0.5 at the corners to x 1.6 in the centre, normal), so
-      edge elements slip first. The sums stay E*A/h and G*A/h, which match the paper's
-      measured ~221 N at 1.5 mm; the same finite-element block is 4.5x stiffer in
-      compression, a gap kept visible here (the real pad is not a solid bonded block of this
-      size). "uniform" gives every element the same rates.
+    stiffness_profile: "bonded_plate" takes each element's spring rates from the finite-element
+      block under a rigid plate stuck to its face, moved along x, y and z in turn (its nodal
+      reactions split by tributary area, `sim.layer.plate_stiffness`): stiffer in the middle
+      than at the free edges (normal x 0.87 at the corners to x 1.26 in the centre of the
+      mean at 13 mm), with totals of 2.06 x E*A/h normal and 0.92 x G*A/h tangential.
+      "uniform" gives every element a free rubber column's rates, E*A/h and G*A/h
+      (`element_stiffness`).
   """
 
   grid: tuple[int, int] = (6, 8)
   footprint: tuple[float, float] = (0.032, 0.039)
-  thickness: float = 0.006
+  thickness: float = 0.013
   youngs_modulus: float = 0.73e6
   poisson_ratio: float = 0.49
   friction: float = 0.9
@@ -75,7 +79,7 @@ class FootpadParams:
   damping_ratio: float = 0.3
   die_x: tuple[float, ...] = (-0.0065, 0.0065)
   die_y: tuple[float, ...] = (-0.011, 0.0, 0.011)
-  die_depth: float = 0.005
+  die_depth: float = 0.012
   tip_radius: float = 0.0005
   timestep: float = 0.001
   cnc_kp: float = 2e7
@@ -115,22 +119,17 @@ class FootpadParams:
     r2 = np.sum(self.element_centres() ** 2, axis=1)
     return self.crown_radius - np.sqrt(self.crown_radius**2 - r2)
 
-  def element_stiffness(self, profile: np.ndarray | None = None) -> np.ndarray:
-    """(num_elements, 3) spring rates (kx, ky, kz) of each element, N/m.
+  def element_stiffness(self) -> np.ndarray:
+    """(num_elements, 3) spring rates (kx, ky, kz) of free rubber columns, N/m.
 
-    A column of rubber of area A and local thickness h: normal k = E*A/h, shear k = G*A/h.
-    The crown thins the rubber towards the edges.
-
-    Args:
-      profile: optional (num_elements, 3) factors with mean 1 per axis that shape the rates
-        across the pad without changing their sums (see `sim.layer.plate_profile`).
+    A column of area A and local thickness h: normal k = E*A/h, shear k = G*A/h. The crown
+    thins the rubber towards the edges.
     """
     dx, dy = self.element_size
     h_local = self.thickness - self.crown_sag()
     kn = self.youngs_modulus * dx * dy / h_local
     kt = self.shear_modulus * dx * dy / h_local
-    k = np.stack([kt, kt, kn], axis=1)
-    return k if profile is None else k * profile
+    return np.stack([kt, kt, kn], axis=1)
 
   def validate(self) -> None:
     """Raise ValueError naming the first parameter outside its allowed range."""
@@ -164,7 +163,7 @@ class FootpadParams:
 
 
 def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool = False,
-               profile: np.ndarray | None = None) -> mujoco.MjSpec:
+               stiffness: np.ndarray | None = None) -> mujoco.MjSpec:
   """Builds the rig as an MjSpec.
 
   Args:
@@ -173,7 +172,8 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
     viscoelastic: each element's normal spring becomes a standard linear solid: the long-term
       spring (a fixed tendon over the two z joints) in parallel with a Maxwell arm (spring on
       the tip's z joint, dashpot on an intermediate z joint).
-    profile: shape of the element rates across the pad (`FootpadParams.element_stiffness`).
+    stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
+      (`FootpadParams.element_stiffness`); see `sim.layer.element_stiffness`.
   Returns:
     The spec; compile with `spec.compile()`.
   """
@@ -231,7 +231,9 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
     m_eff = params.cnc_mass + 0.044 + params.num_elements * 1e-4
     act.set_to_position(kp=params.cnc_kp, kv=2.0 * math.sqrt(params.cnc_kp * m_eff))
 
-  k = params.element_stiffness(profile)
+  k = params.element_stiffness() if stiffness is None else np.asarray(stiffness, float)
+  if k.shape != (params.num_elements, 3):
+    raise ValueError(f"stiffness has shape {k.shape}: expected ({params.num_elements}, 3)")
   dx, dy = params.element_size
   centres = params.element_centres()
   sag = params.crown_sag()

@@ -159,16 +159,17 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
   return model_lib.build_spec(scene.params, friction="friction" in effects,
                               viscoelastic="viscoelastic" in effects,
-                              profile=layer.stiffness_profile(scene.params)).compile()
+                              stiffness=layer.element_stiffness(scene.params)).compile()
 
 
 def press_depth(scene: FootpadScene, kernel: np.ndarray) -> float:
   """Depth at which the first die saturates under a uniform press, capped at the strain limit."""
   if scene.press_depth is not None:
     return scene.press_depth
-  kz = scene.params.element_stiffness(layer.stiffness_profile(scene.params))[:, 2]
+  kz = layer.element_stiffness(scene.params)[:, 2]
   pa_per_m = np.max(kernel[:, :, 2] @ kz)
-  # 5 % past the linear estimate: contact penetration makes the pad ~2 % softer than E*A/h.
+  # 5 % past the linear estimate: contact penetration makes the pad ~2 % softer than its
+  # springs.
   depth = 1.05 * sensor_chain.saturation_pressure(scene.adc) / pa_per_m
   return float(min(depth, scene.max_indentation))
 
@@ -297,7 +298,10 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 
 
 def versions() -> dict[str, str]:
-  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1"}
+  # "physics" changes whenever the model or sensor chain does, so stale cached recordings
+  # are not reused: 2 = element rates from the bonded finite-element block.
+  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
+          "physics": "2"}
 
 
 def cache_key(scene: FootpadScene) -> str:

@@ -302,12 +302,11 @@ def halfspace_kernel(params: FootpadParams, quadrature: int = 6) -> np.ndarray:
   return k.reshape(len(k), params.num_elements, len(sub), 3).mean(axis=2)
 
 
-def plate_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
-  """(num_elements, 3) shape of the element stiffness across the pad, mean 1 per axis.
+def plate_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_elements, 3) spring rates (kx, ky, kz) of the flat pad's elements, N/m.
 
   The bonded block's face is moved by a rigid plate stuck to it, along x, y and z in turn;
-  each element's share of the plate's reaction (nodal reactions split by tributary area)
-  gives its share of the stiffness along that axis.
+  each element takes its tributary share of the face's nodal reactions along that axis.
   """
   xs, ys, zs = _grid(params, mesh)
   n = len(xs) * len(ys)
@@ -318,7 +317,7 @@ def plate_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.nd
                     pressed=tuple(tuple(row) for row in np.eye(3)))
   reaction = sol.stiffness @ sol.u  # (ndof, 3): one column per direction moved
   out = np.stack([share.T @ reaction[c:3 * n:3, c] for c in range(3)], axis=1)
-  return out / out.mean(axis=0)
+  return params.youngs_modulus * out
 
 
 def _cached(kind: str, key: dict, compute) -> np.ndarray:
@@ -346,8 +345,15 @@ def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
   return _cached("kernels", _layer_key(params, mesh), lambda: bonded_layer_kernel(params, mesh))
 
 
-def stiffness_profile(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray | None:
-  """The profile that `params.stiffness_profile` asks for (None for uniform), cached."""
+def element_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_elements, 3) element spring rates, N/m, that `params.stiffness_profile` asks for.
+
+  "bonded_plate": `plate_stiffness` (cached), each element scaled by thickness / local
+  thickness where a crown thins the rubber; "uniform": free rubber columns.
+  """
+  columns = params.element_stiffness()
   if params.stiffness_profile == "uniform":
-    return None
-  return _cached("profiles", _layer_key(params, mesh), lambda: plate_profile(params, mesh))
+    return columns
+  key = _layer_key(params, mesh) | {"youngs_modulus": params.youngs_modulus}
+  flat = _cached("stiffness", key, lambda: plate_stiffness(params, mesh))
+  return flat * (columns / dataclasses.replace(params, crown_radius=np.inf).element_stiffness())

@@ -1,0 +1,143 @@
+"""The LSANN paper's Table I protocol, shared by asterisk_path, circular_path, footpad_table1.
+
+LS is fitted on the Z presses and X/Y strokes (paper Sec. III-B); LSANN and NN-only train on
+the given paths at every Z level (Sec. III-C); all three are tested on Testing Paths 1 and 2.
+Networks train from several seeds (spawned from the run's one seed) and the table reports
+medians; per-seed numbers go to metrics.json, fitted estimators to DIR/estimators/.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from benchmarks import footpad_data
+from calibrate import estimators, linear, metrics, mlp
+from sim import footpad
+
+AXES = ("X", "Y", "Z")
+METHODS = ("LS", "LSANN", "NN")
+PAPER_TABLE1 = {  # Table I, test paths: RMSE N, NRMSE %, R2 %
+    "LSANN": {"Z": (2.58, 1.17, 99.78), "Y": (12.84, 10.14, 72.22), "X": (10.48, 8.30, 81.03)},
+    "NN": {"Z": (2.42, 1.10, 99.90), "Y": (12.63, 9.98, 79.02), "X": (11.17, 8.85, 83.62)},
+}
+PAPER_LS_TRAIN_NRMSE = {"Z": 0.42, "Y": 5.72, "X": 9.63}  # Sec. III-B
+PAPER_MINUTES = {"LSANN": 59.0, "NN": 144.5}
+SEEDS = 5
+QUICK_SEEDS = 3
+
+
+def _recordings(ctx):
+  recs = {}
+  for name, scene in footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides).items():
+    recs[name], _ = footpad.generate(scene, ctx.progress(f"{name} episodes"), ctx.use_cache)
+  return recs
+
+
+def iterations_to(val_mse: np.ndarray, target: float):
+  """First epoch whose validation MSE is at or below target; None if never."""
+  hit = np.flatnonzero(val_mse <= target)
+  return int(hit[0]) if hit.size else None
+
+
+def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
+  recs = _recordings(ctx)
+  strokes = recs["train"].paths("z_press", "x_stroke", "y_stroke")
+  strokes = strokes.select(strokes.phase == 1)
+  nn_train = recs["train"].paths(*nn_paths)
+  nn_train = nn_train.select(nn_train.phase == 1)
+  test = recs["test"].select(recs["test"].phase == 1)
+  truth = test.wrench[:, :3]
+
+  t0 = time.perf_counter()
+  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3])
+  ls_seconds = time.perf_counter() - t0
+  ls_train = metrics.summary(ls.predict(strokes.counts), strokes.wrench[:, :3], AXES)
+  ctx.print(f"LS on {len(strokes)} stroke samples (rank {ls.linear.rank}); networks on "
+            f"{len(nn_train)} samples of {', '.join(nn_paths)}; test on {len(test)} samples")
+  ctx.print(f"{'LS train NRMSE %':18s} " + "  ".join(
+      f"{ax} {ls_train[ax]['nrmse_pct']:6.2f} (paper {PAPER_LS_TRAIN_NRMSE[ax]:5.2f})"
+      for ax in ("Z", "Y", "X")))
+
+  n_seeds = seeds or (QUICK_SEEDS if ctx.quick else SEEDS)
+  child = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(ctx.seed).spawn(n_seeds)]
+  est_dir = ctx.out / "estimators"
+  est_dir.mkdir(parents=True, exist_ok=True)
+  ls.save(est_dir / "LS.npz")
+  per_seed = []
+  for k, seed in enumerate(child):
+    row = {"seed": seed}
+    for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
+      est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
+                           seed=seed, progress=ctx.progress(f"{kind.value} seed {k + 1}/{n_seeds}"))
+      est.save(est_dir / f"{kind.value}_seed{k}.npz")
+      tr = est.training
+      row[kind.value] = {"test": metrics.summary(est.predict(test.counts), truth, AXES),
+                         "train": {"seconds": tr.seconds, "compile_seconds": tr.compile_seconds,
+                                   "iterations": tr.epochs, "best_epoch": tr.best_epoch,
+                                   "stop": tr.stop.name,
+                                   "final_val_mse": float(tr.val_mse[tr.best_epoch])},
+                         "_val": tr.val_mse}
+    target = row["NN"]["train"]["final_val_mse"]
+    row["LSANN"]["train"]["iterations_to_nn_val_mse"] = iterations_to(row["LSANN"].pop("_val"),
+                                                                       target)
+    row["NN"].pop("_val")
+    row["NN"]["train"]["iterations_to_nn_val_mse"] = row["NN"]["train"]["best_epoch"]
+    per_seed.append(row)
+
+  results = {"LS": {**metrics.summary(ls.predict(test.counts), truth, AXES),
+                    "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
+  for m in ("LSANN", "NN"):
+    results[m] = {ax: {key: float(np.median([r[m]["test"][ax][key] for r in per_seed]))
+                       for key in per_seed[0][m]["test"][ax]} for ax in AXES}
+    results[m]["train"] = {key: float(np.median([r[m]["train"][key] for r in per_seed]))
+                           for key in ("seconds", "compile_seconds", "iterations")}
+  hits = [r["LSANN"]["train"]["iterations_to_nn_val_mse"] for r in per_seed]
+  ratios = [h / r["NN"]["train"]["best_epoch"] for h, r in zip(hits, per_seed)
+            if h is not None and r["NN"]["train"]["best_epoch"] > 0]
+  comparison = {
+      "time_ratio_lsann_over_nn": float(np.median(
+          [r["LSANN"]["train"]["seconds"] / r["NN"]["train"]["seconds"] for r in per_seed])),
+      "iteration_ratio_to_nn_val_mse": float(np.median(ratios)) if ratios else None,
+      "seeds_where_lsann_reached_nn_val_mse": len(ratios),
+      "x_better_than_y": {m: results[m]["X"]["nrmse_pct"] < results[m]["Y"]["nrmse_pct"]
+                          for m in METHODS},
+      "networks_better_than_ls": {m: {ax: results[m][ax]["nrmse_pct"] < results["LS"][ax]["nrmse_pct"]
+                                      for ax in AXES} for m in ("LSANN", "NN")},
+  }
+  _print_table(ctx, results, ls_train, comparison, n_seeds)
+  return {"results": results, "LS_train": ls_train, "per_seed": per_seed,
+          "comparison": comparison, "seeds": child,
+          "paper": {"table1": PAPER_TABLE1, "LS_train_nrmse_pct": PAPER_LS_TRAIN_NRMSE,
+                    "training_minutes": PAPER_MINUTES, "iteration_ratio": 59.0 / 144.5},
+          "samples": {"ls_train": len(strokes), "nn_train": len(nn_train), "test": len(test)},
+          "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
+
+
+def _print_table(ctx, results, ls_train, comparison, n_seeds) -> None:
+  ctx.print(f"\nTable I (test paths; networks: median of {n_seeds} seeds)   [paper in brackets]")
+  ctx.print(f"{'':7s}" + "".join(f"{ax + ' RMSE N':>16s}{'NRMSE %':>16s}{'R2 %':>17s}"
+                                  for ax in ("Z", "Y", "X")))
+  for m in METHODS:
+    cells = []
+    for ax in ("Z", "Y", "X"):
+      r = results[m][ax]
+      p = PAPER_TABLE1.get(m, {}).get(ax)
+      fmt = lambda v, i: f"{v:7.2f}" + (f" [{p[i]:6.2f}]" if p else " " * 9)
+      cells.append(fmt(r["rmse"], 0) + fmt(r["nrmse_pct"], 1) + fmt(r["r2_pct"], 2) + " ")
+    ctx.print(f"{m:7s}" + "".join(cells))
+  ctx.print(f"\n{'training':9s} {'seconds':>9s} {'compile s':>10s} {'iterations':>11s}   paper")
+  for m in METHODS:
+    t = results[m]["train"]
+    paper = f"{PAPER_MINUTES[m]} min" if m in PAPER_MINUTES else ""
+    ctx.print(f"{m:9s} {t['seconds']:9.2f} {t['compile_seconds']:10.2f} {t['iterations']:11.0f}"
+              f"   {paper}")
+  ir = comparison["iteration_ratio_to_nn_val_mse"]
+  ctx.print(f"LSANN/NN-only training time {comparison['time_ratio_lsann_over_nn']:.2f} "
+            f"(paper {59.0 / 144.5:.2f}); LSANN iterations to NN-only's final validation MSE / "
+            f"NN-only's: " + (f"{ir:.2f}" if ir is not None else "never reached") +
+            f" ({comparison['seeds_where_lsann_reached_nn_val_mse']}/{n_seeds} seeds; paper 0.41)")
+  xb = comparison["x_better_than_y"]
+  ctx.print("X estimated better than Y (paper: yes): " +
+            ", ".join(f"{m} {'yes' if v else 'no'}" for m, v in xb.items()))
