@@ -15,7 +15,7 @@ import sys
 import time
 from typing import Callable, Optional
 
-BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "footpad_dataset",
+BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "lm_solvers", "footpad_dataset",
               "footpad_kernels", "footpad_throughput")
 
 

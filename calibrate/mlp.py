@@ -174,14 +174,17 @@ def normal_equations(theta, x, y, h: int):
   e = y - hh @ w2.T
   g = 1.0 - hid**2
   s = w2[:, :h]  # (O, H) output weights without bias
-  z = (g[:, :, None] * a[:, None, :]).reshape(n, h * (d + 1))
+  nz = h * (d + 1)
+  # one Gram matrix of the per-sample vector [(1 - h^2) (x) (x, 1), h, 1] holds every block
+  u = jnp.concatenate([(g[:, :, None] * a[:, None, :]).reshape(n, nz), hh], axis=1)
+  gram = u.T @ u
   ones = jnp.ones((d + 1,), x.dtype)
-  b11 = (z.T @ z) * jnp.kron(s.T @ s, jnp.outer(ones, ones))
-  zh = z.T @ hh  # (H (D+1), H+1)
+  b11 = gram[:nz, :nz] * jnp.kron(s.T @ s, jnp.outer(ones, ones))
+  zh = gram[:nz, nz:]  # (H (D+1), H+1)
   b12 = jnp.concatenate([zh * jnp.kron(s[k], ones)[:, None] for k in range(o)], axis=1)
-  b22 = jnp.kron(jnp.eye(o, dtype=x.dtype), hh.T @ hh)
+  b22 = jnp.kron(jnp.eye(o, dtype=x.dtype), gram[nz:, nz:])
   jtj = jnp.block([[b11, b12], [b12.T, b22]])
-  g1 = (((e @ s) * g)[:, :, None] * a[:, None, :]).sum(axis=0).ravel()
+  g1 = (((e @ s) * g).T @ a).ravel()  # backprop: (H, D+1)
   g2 = (e.T @ hh).ravel()
   return jtj, jnp.concatenate([g1, g2]), jnp.sum(e**2)
 
@@ -278,45 +281,51 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   xvj = jnp.asarray(xs.forward(x_val))
   theta = (nguyen_widrow(jax.random.key(seed), d, h, o) if start is None
            else jnp.asarray(start, jnp.float64))
-  half = ys._half()[0]  # output units per scaled unit
+  half = jnp.asarray(ys._half()[0])  # output units per scaled unit
+  yvs = jnp.asarray(ys.forward(y_val))
 
-  fwd = jax.jit(_forward, static_argnums=(2, 3, 4))
-  half_j = jnp.asarray(half)
-  train_mse = jax.jit(lambda t: jnp.mean((residuals(t, xj, yj, h).reshape(-1, o) * half_j) ** 2))
-
-  def val_mse(t):
-    return float(np.mean((ys.inverse(np.asarray(fwd(t, xvj, h, d, o))) - y_val) ** 2))
+  def mses(t):  # training and validation MSE in output units
+    tr = jnp.mean((residuals(t, xj, yj, h).reshape(-1, o) * half) ** 2)
+    return tr, jnp.mean(((_forward(t, xvj, h, d, o) - yvs) * half) ** 2)
 
   t0 = time.perf_counter()
   if config.backend == "own":
-    step = _lm_epoch_fn(h, config)
+    inner = _lm_epoch_fn(h, config)
     state = jnp.asarray(config.mu)
   else:
-    solver, step = _jaxopt_epoch_fn(h, config)
+    solver, inner = _jaxopt_epoch_fn(h, config)
     state = solver.init_state(theta, xj, yj)
-  jax.block_until_ready(step(theta, state, xj, yj))  # compile on the start point
-  train_hist = [float(train_mse(theta))]
-  val_hist = [val_mse(theta)]
+
+  @jax.jit
+  def step(theta, state):
+    theta, state, sse, grad = inner(theta, state, xj, yj)
+    mu = state if config.backend == "own" else jnp.asarray(0.0)
+    return theta, state, jnp.stack([*mses(theta), grad, sse / yj.size, mu])
+
+  jax.block_until_ready(step(theta, state))  # compile on the start point
+  tr0, va0 = (float(v) for v in jax.jit(mses)(theta))
   compile_s = time.perf_counter() - t0
+  train_hist, val_hist = [tr0], [va0]
   best, best_epoch, fails, stop = theta, 0, 0, Stop.MAX_EPOCHS
   t1 = time.perf_counter()
   for ep in range(1, config.epochs + 1):
-    theta, state, sse, grad = step(theta, state, xj, yj)
-    train_hist.append(float(train_mse(theta)))
-    val_hist.append(val_mse(theta))
+    theta, state, info = step(theta, state)
+    tr, va, grad, mse_scaled, mu = np.asarray(info).tolist()
+    train_hist.append(tr)
+    val_hist.append(va)
     if progress:
       progress(ep, config.epochs)
-    if val_hist[-1] < val_hist[best_epoch]:
+    if va < val_hist[best_epoch]:
       best, best_epoch, fails = theta, ep, 0
     else:
       fails += 1
-    if config.backend == "own" and float(state) > config.mu_max:
+    if config.backend == "own" and mu > config.mu_max:
       stop = Stop.MU_MAX
     elif fails >= config.max_fail:
       stop = Stop.VALIDATION
-    elif float(grad) < config.min_grad:
+    elif grad < config.min_grad:
       stop = Stop.MIN_GRADIENT
-    elif float(sse) / y.size <= config.goal:
+    elif mse_scaled <= config.goal:
       stop = Stop.GOAL
     else:
       continue

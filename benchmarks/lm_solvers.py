@@ -1,0 +1,174 @@
+"""lm_solvers: one network, one dataset, four Levenberg-Marquardt implementations.
+
+The NN-only network (6 counts -> 10 tanh -> 3 forces, inputs and outputs scaled to [-1, 1])
+on the footpad's Asterisk training samples, from one Nguyen-Widrow start point. The project's
+LM runs to its validation stop; its best validation MSE becomes the target, and each solver
+reports the time and iterations it needs to reach it (capped). Per-iteration time of the
+project's LM is compared with the dense J^T J product (J of shape (N*3, 103)) timed in the
+same run. Times exclude JIT compilation, which is reported separately.
+"""
+
+from __future__ import annotations
+
+import time
+
+import jax
+import jax.numpy as jnp
+import mujoco.minimize
+import numpy as np
+import scipy.optimize
+
+from benchmarks import footpad_data
+from calibrate import estimators, mlp
+from sim import footpad
+
+DESCRIPTION = "LM for the footpad network: own vs jaxopt vs scipy vs mujoco.minimize"
+SAMPLES = 100_000
+QUICK_SAMPLES = 20_000
+
+
+class _Reached(Exception):
+  pass
+
+
+def _dense_jtj_seconds(rows: int, p: int, repeats: int = 5) -> float:
+  j = jax.random.normal(jax.random.key(0), (rows, p), jnp.float64)
+  f = jax.jit(lambda a: a.T @ a)
+  f(j).block_until_ready()
+  times = []
+  for _ in range(repeats):
+    t = time.perf_counter()
+    f(j).block_until_ready()
+    times.append(time.perf_counter() - t)
+  return float(np.median(times))
+
+
+def _race(name, run, val_mse, target, cap_s):
+  """Runs `run(fun, jac)` with tracking wrappers; returns seconds/iterations to target."""
+  state = {"t0": None, "jac": 0, "best": np.inf}
+
+  def check(theta):
+    v = val_mse(theta)
+    state["best"] = min(state["best"], v)
+    if v <= target:
+      raise _Reached
+    if time.perf_counter() - state["t0"] > cap_s:
+      raise TimeoutError
+
+  state["t0"] = time.perf_counter()
+  try:
+    run(check, state)
+    outcome = "stopped before the target"
+  except _Reached:
+    outcome = "reached"
+  except TimeoutError:
+    outcome = f"cap {cap_s:.0f} s"
+  seconds = time.perf_counter() - state["t0"]
+  return {"solver": name, "outcome": outcome, "seconds": seconds, "iterations": state["jac"],
+          "best_val_mse": state["best"]}
+
+
+def run(ctx) -> dict:
+  scene = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)["train"]
+  rec, _ = footpad.generate(scene, ctx.progress("train episodes"), ctx.use_cache)
+  data = rec.paths("asterisk")
+  data = data.select(data.phase == 1)
+  n_want = QUICK_SAMPLES if ctx.quick else SAMPLES
+  pick = np.random.default_rng(np.random.SeedSequence([ctx.seed, 2])).permutation(len(data))
+  tr_all, va_all = estimators.split_validation(min(len(data), int(n_want / 0.85)), 0.15,
+                                               ctx.seed)
+  tr, va = pick[tr_all][:n_want], pick[va_all]
+  x, y = data.counts[tr], data.wrench[tr, :3]
+  xs, ys = mlp.MinMax.fit(x), mlp.MinMax.fit(y)
+  xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
+  xv, yv = jnp.asarray(xs.forward(data.counts[va])), jnp.asarray(ys.forward(data.wrench[va, :3]))
+  h, d, o = 10, x.shape[1], 3
+  theta0 = np.asarray(mlp.nguyen_widrow(jax.random.key(ctx.seed), d, h, o))
+  n_par = theta0.size
+  ctx.print(f"N = {len(x)} training samples ({len(va)} validation), {n_par} parameters")
+
+  fwd = jax.jit(lambda t, a: mlp._forward(t, a, h, d, o))
+
+  def val_mse(theta):  # in scaled output units, the same for every solver
+    return float(jnp.mean((fwd(jnp.asarray(theta).ravel(), xv) - yv) ** 2))
+
+  results = []
+  # Project's LM and jaxopt's: per-epoch validation history from `mlp.train`.
+  own = None
+  for backend in ("own", "jaxopt"):
+    cfg = mlp.LMConfig(hidden=h, backend=backend, max_fail=6 if backend == "own" else 10**9,
+                       epochs=1000 if backend == "own" else 200)
+    res = mlp.train(np.asarray(xj), np.asarray(yj), np.asarray(xv), np.asarray(yv), cfg,
+                    start=theta0, progress=ctx.progress(f"{backend} LM epochs"))
+    per_iter = res.seconds / max(res.epochs, 1)
+    if backend == "own":
+      own, target = res, float(res.val_mse[res.best_epoch])
+    hit = np.flatnonzero(res.val_mse <= target)
+    results.append({"solver": f"{backend} LM" if backend == "own" else "jaxopt LM",
+                    "outcome": "reached" if hit.size else "stopped before the target",
+                    "seconds": float(hit[0] * per_iter) if hit.size else res.seconds,
+                    "iterations": int(hit[0]) if hit.size else res.epochs,
+                    "best_val_mse": float(res.val_mse.min()),
+                    "seconds_per_iteration": per_iter, "compile_seconds": res.compile_seconds})
+  cap = 60.0 if ctx.quick else 300.0
+
+  res_fn = jax.jit(lambda t: mlp.residuals(t, xj, yj, h))
+  jac_fn = jax.jit(lambda t: jax.jacfwd(mlp.residuals)(t, xj, yj, h))
+  t = time.perf_counter()
+  jax.block_until_ready((res_fn(jnp.asarray(theta0)), jac_fn(jnp.asarray(theta0))))
+  compile_ref = time.perf_counter() - t
+
+  def scipy_run(check, state):
+    def fun(theta):
+      check(theta)
+      return np.asarray(res_fn(jnp.asarray(theta)))
+
+    def jac(theta):
+      state["jac"] += 1
+      return np.asarray(jac_fn(jnp.asarray(theta)))
+    scipy.optimize.least_squares(fun, theta0, jac=jac, method="lm", max_nfev=10**6,
+                                 xtol=1e-15, ftol=1e-15, gtol=1e-15)
+
+  def mujoco_run(check, state):
+    def fun(theta):
+      cols = []
+      for k in range(theta.shape[1]):
+        check(theta[:, k])
+        cols.append(np.asarray(res_fn(jnp.asarray(theta[:, k]))))
+      return np.stack(cols, axis=1)
+
+    def jac(theta, r):
+      state["jac"] += 1
+      return np.asarray(jac_fn(jnp.asarray(theta.ravel())))
+    mujoco.minimize.least_squares(theta0, fun, jacobian=jac, max_iter=10**6, verbose=0,
+                                  xtol=1e-15, gtol=1e-15)
+
+  for name, fn in (("scipy least_squares lm", scipy_run), ("mujoco.minimize", mujoco_run)):
+    ctx.print(f"running {name} (capped at {cap:.0f} s)...")
+    row = _race(name, fn, val_mse, target, cap)
+    row["compile_seconds"] = compile_ref
+    row["seconds_per_iteration"] = row["seconds"] / max(row["iterations"], 1)
+    results.append(row)
+
+  jtj_s = _dense_jtj_seconds(len(x) * o, n_par)
+  own_row = results[0]
+  others = [r for r in results[1:] if r["outcome"] == "reached"]
+  fastest_other = min((r["seconds"] for r in others), default=None)
+  ctx.print(f"\ntarget validation MSE (scaled units) {target:.4g}: own LM's best, epoch "
+            f"{own.best_epoch} of {own.epochs} ({own.stop.name})")
+  ctx.print(f"{'solver':24s} {'outcome':>24s} {'seconds':>9s} {'iterations':>11s} "
+            f"{'s/iteration':>12s} {'compile s':>10s}")
+  for r in results:
+    ctx.print(f"{r['solver']:24s} {r['outcome']:>24s} {r['seconds']:9.2f} {r['iterations']:11d} "
+              f"{r['seconds_per_iteration']:12.4f} {r['compile_seconds']:10.2f}")
+  ratio = own_row["seconds_per_iteration"] / jtj_s
+  ctx.print(f"dense J^T J matmul ({len(x) * o} x {n_par}): {jtj_s * 1e3:.1f} ms; own LM per "
+            f"iteration / that = {ratio:.2f} (issue: at most 3)")
+  speedup = (fastest_other / own_row["seconds"]) if fastest_other and own_row["seconds"] > 0 \
+      else None
+  ctx.print("own LM speed-up to target over the fastest other solver that reached it: " +
+            (f"{speedup:.1f}x" if speedup else "no other solver reached the target within its cap"))
+  return {"samples": {"train": len(x), "validation": len(va)}, "parameters": n_par,
+          "target_val_mse_scaled": target, "solvers": results,
+          "dense_jtj_seconds": jtj_s, "own_per_iteration_over_jtj": ratio,
+          "speedup_over_fastest_other": speedup, "effects": list(scene.effects)}
