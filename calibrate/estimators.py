@@ -2,8 +2,8 @@
 
 * LS: linear least squares from the six die counts (paper Sec. III-B).
 * POLY: the cubic pseudoinverse (force-sensing-shell paper), same numerics.
-* LSANN: LS, then the network fitted to the residual F - F_LS with the three LS force
-  estimates as its inputs (paper Sec. III-C, Eqn 8: the LS stage reduces six inputs to three).
+* LSANN: LS, then the network fitted to the residual F - F_LS from the six counts (paper
+  Sec. III-C: "the input is the array of voltage signals"; Eqn 8 sums the two).
 * NN: the same network fitted to F from the six counts.
 """
 
@@ -40,7 +40,7 @@ class Estimator:
     if self.kind is Kind.NN:
       return self.net.predict(counts)
     f = self.linear.predict(counts)
-    return f + self.net.predict(f) if self.kind is Kind.LSANN else f
+    return f + self.net.predict(counts) if self.kind is Kind.LSANN else f
 
   def save(self, path) -> None:
     """Writes the arrays and settings to one .npz file."""
@@ -101,8 +101,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
   inputs, targets = counts, forces
   if kind is Kind.LSANN:
     lin = linear_fit or linear.fit_linear(counts, forces)
-    inputs = lin.predict(counts)
-    targets = forces - inputs
+    targets = forces - lin.predict(counts)
   tr, va = split_validation(len(inputs), val_fraction, seed)
   res = mlp.train(inputs[tr], targets[tr], inputs[va], targets[va], config, seed, progress)
   return Estimator(kind, lin, res.net, res)

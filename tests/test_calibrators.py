@@ -1,0 +1,78 @@
+"""Estimators as plain data, and the LSANN paper's Table I trends on the --quick footpad data."""
+
+import numpy as np
+import pytest
+
+from benchmarks import footpad_table
+from benchmarks.run import Context
+from calibrate import estimators, mlp
+
+FAST = mlp.LMConfig(hidden=5, epochs=30)
+
+
+def _data(n=600, seed=0):
+  rng = np.random.default_rng(seed)
+  v = rng.uniform(500, 3500, (n, 6))
+  f = np.column_stack([v @ rng.normal(size=6) * 1e-2, np.tanh((v[:, 0] - 2000) / 800) * 30,
+                       (v[:, 1] / 1000) ** 2])
+  return v, f
+
+
+@pytest.mark.parametrize("kind", list(estimators.Kind))
+def test_save_load_round_trip(kind, tmp_path):
+  v, f = _data()
+  est = estimators.fit(kind, v, f, config=FAST, seed=1)
+  est.save(tmp_path / "e.npz")
+  back = estimators.Estimator.load(tmp_path / "e.npz")
+  assert back.kind is kind
+  np.testing.assert_array_equal(back.predict(v), est.predict(v))
+
+
+def test_lsann_is_ls_plus_a_network_on_the_residual():
+  v, f = _data()
+  ls = estimators.fit(estimators.Kind.LS, v, f)
+  est = estimators.fit(estimators.Kind.LSANN, v, f, linear_fit=ls.linear, config=FAST, seed=2)
+  f_ls = ls.predict(v)
+  np.testing.assert_allclose(est.predict(v), f_ls + est.net.predict(v), rtol=1e-13)
+  assert est.net.w1.shape[1] == 6 + 1  # its inputs are the six counts (paper Sec. III-C)
+  # the residual network improves on LS where the map is nonlinear
+  err = lambda p: np.sqrt(np.mean((p - f) ** 2, axis=0))
+  assert err(est.predict(v))[1] < 0.5 * err(f_ls)[1]
+
+
+def test_same_seed_same_network():
+  v, f = _data()
+  a = estimators.fit(estimators.Kind.NN, v, f, config=FAST, seed=5)
+  b = estimators.fit(estimators.Kind.NN, v, f, config=FAST, seed=5)
+  np.testing.assert_array_equal(a.net.w1, b.net.w1)
+
+
+@pytest.fixture(scope="module")
+def table(tmp_path_factory):
+  ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"), overrides={},
+                use_cache=True, show_progress=False)
+  ctx = type("Quiet", (), {**{f: getattr(ctx, f) for f in ("quick", "seed", "out", "overrides",
+                                                               "use_cache")},
+                           "print": lambda self, *a: None, "progress": lambda self, label: None})()
+  return footpad_table.run_table(ctx, ("asterisk",), seeds=1)["results"]
+
+
+def test_z_is_estimated_far_better_than_shear(table):
+  for m in footpad_table.METHODS:
+    z = table[m]["Z"]["nrmse_pct"]
+    assert z < 3.0 and z < table[m]["X"]["nrmse_pct"] and z < table[m]["Y"]["nrmse_pct"], m
+
+
+@pytest.mark.xfail(strict=True, reason="simulated shear is nearly linear in the die counts "
+                   "(R2 > 99 %): the pad's error sources of the paper are not modelled; see "
+                   "footpad_table docstring")
+def test_shear_r2_in_the_papers_neighbourhood(table):
+  for m in footpad_table.METHODS:
+    for ax in ("X", "Y"):
+      assert 50.0 < table[m][ax]["r2_pct"] < 95.0, (m, ax)
+
+
+def test_lsann_and_nn_agree_within_one_and_a_half_times(table):
+  for ax in ("X", "Y", "Z"):
+    a, b = table["LSANN"][ax]["nrmse_pct"], table["NN"][ax]["nrmse_pct"]
+    assert max(a, b) / min(a, b) < 1.5, (ax, a, b)
