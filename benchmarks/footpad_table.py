@@ -4,6 +4,14 @@ LS is fitted on the Z presses and X/Y strokes (paper Sec. III-B); LSANN and NN-o
 the given paths at every Z level (Sec. III-C); all three are tested on Testing Paths 1 and 2.
 Networks train from several seeds (spawned from the run's one seed) and the table reports
 medians; per-seed numbers go to metrics.json, fitted estimators to DIR/estimators/.
+
+Known gap (measured): the simulated pad reports shear far better than the paper (test R2
+above 99 % against the paper's 72-84 %). With the 13 mm bonded layer the pad stays stuck over
+the +-3 mm strokes except at the lightest Z levels, the die kernel is linear, and the
+remaining nonlinearities (slip at light load, ADC clipping, noise) are small; the paper's
+error sources that are not simulated include the rubber's hysteresis and rate dependence
+(the `viscoelastic` effect is opt-in with assumed magnitudes), large-strain elasticity and
+stick-slip at higher loads.
 """
 
 from __future__ import annotations
@@ -13,7 +21,7 @@ import time
 import numpy as np
 
 from benchmarks import footpad_data
-from calibrate import estimators, linear, metrics, mlp
+from calibrate import estimators, metrics
 from sim import footpad
 
 AXES = ("X", "Y", "Z")
@@ -79,11 +87,15 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
                                    "stop": tr.stop.name,
                                    "final_val_mse": float(tr.val_mse[tr.best_epoch])},
                          "_val": tr.val_mse}
+    lsann_val, nn_val = row["LSANN"].pop("_val"), row["NN"].pop("_val")
     target = row["NN"]["train"]["final_val_mse"]
-    row["LSANN"]["train"]["iterations_to_nn_val_mse"] = iterations_to(row["LSANN"].pop("_val"),
-                                                                       target)
-    row["NN"].pop("_val")
+    row["LSANN"]["train"]["iterations_to_nn_val_mse"] = iterations_to(lsann_val, target)
     row["NN"]["train"]["iterations_to_nn_val_mse"] = row["NN"]["train"]["best_epoch"]
+    # the accuracy both arms reach: the worse of the two best validation MSEs
+    common = max(target, row["LSANN"]["train"]["final_val_mse"])
+    row["common_val_mse"] = common
+    row["iterations_to_common"] = {"LSANN": iterations_to(lsann_val, common),
+                                   "NN": iterations_to(nn_val, common)}
     per_seed.append(row)
 
   results = {"LS": {**metrics.summary(ls.predict(test.counts), truth, AXES),
@@ -96,11 +108,14 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
   hits = [r["LSANN"]["train"]["iterations_to_nn_val_mse"] for r in per_seed]
   ratios = [h / r["NN"]["train"]["best_epoch"] for h, r in zip(hits, per_seed)
             if h is not None and r["NN"]["train"]["best_epoch"] > 0]
+  common = [r["iterations_to_common"]["LSANN"] / max(r["iterations_to_common"]["NN"], 1)
+            for r in per_seed]
   comparison = {
       "time_ratio_lsann_over_nn": float(np.median(
           [r["LSANN"]["train"]["seconds"] / r["NN"]["train"]["seconds"] for r in per_seed])),
       "iteration_ratio_to_nn_val_mse": float(np.median(ratios)) if ratios else None,
       "seeds_where_lsann_reached_nn_val_mse": len(ratios),
+      "iteration_ratio_to_common_val_mse": float(np.median(common)),
       "x_better_than_y": {m: results[m]["X"]["nrmse_pct"] < results[m]["Y"]["nrmse_pct"]
                           for m in METHODS},
       "networks_better_than_ls": {m: {ax: results[m][ax]["nrmse_pct"] < results["LS"][ax]["nrmse_pct"]
@@ -138,6 +153,8 @@ def _print_table(ctx, results, ls_train, comparison, n_seeds) -> None:
             f"(paper {59.0 / 144.5:.2f}); LSANN iterations to NN-only's final validation MSE / "
             f"NN-only's: " + (f"{ir:.2f}" if ir is not None else "never reached") +
             f" ({comparison['seeds_where_lsann_reached_nn_val_mse']}/{n_seeds} seeds; paper 0.41)")
+  ctx.print(f"LSANN/NN-only iterations to the validation MSE both reach: "
+            f"{comparison['iteration_ratio_to_common_val_mse']:.2f}")
   xb = comparison["x_better_than_y"]
   ctx.print("X estimated better than Y (paper: yes): " +
             ", ".join(f"{m} {'yes' if v else 'no'}" for m, v in xb.items()))
