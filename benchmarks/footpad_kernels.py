@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 
 from benchmarks import footpad_data
 from calibrate import linear, metrics
@@ -26,7 +25,7 @@ def run(ctx) -> dict:
   for kernel in layer.Kernel:
     rec, _ = footpad.generate(dataclasses.replace(base, kernel=kernel),
                               ctx.progress(kernel.value), ctx.use_cache)
-    on = rec.select(rec.phase == 1)
+    on = rec.on_path()
     fit = linear.fit_linear(on.counts, on.wrench[:, :3])
     pred = fit.predict(on.counts)
     r2 = metrics.r2_pct(pred, on.wrench[:, :3])
@@ -36,5 +35,5 @@ def run(ctx) -> dict:
     ctx.print(f"{kernel.value:14s} {r2[0]:8.2f} {r2[1]:8.2f} {r2[2]:8.2f} {nrmse[0]:10.2f} "
               f"{nrmse[1]:10.2f}")
   ctx.print("paper (LSANN, test paths): R2 X 81.03 %, Y 72.22 %")
-  return {"results": results, "samples": int(np.sum(rec.phase == 1)),
+  return {"results": results, "samples": len(on),
           "effects": list(base.effects)}

@@ -194,12 +194,11 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   # The CNC holds the pad, the plate is tared: gravity only adds the pad's weight offset.
   opt.gravity = [0.0, 0.0, 0.0]
 
-  # Stiff contact: timeconst below the step is replaced by the stiffest resolvable row
-  # (discrete integrator, refsafe); rubber compliance lives in the element springs.
-  # Contact rows: timeconst = timestep/2 with refsafe off and dmin = 0.9. Measured here: stiffer
-  # rows (timeconst <= 0.2 ms, or dmin >= 0.95 at the refsafe limit) made every element lose
-  # contact at the onset of sliding (shear collapsing to ~0 each cycle); this setting slides
-  # smoothly at exactly mu*N and costs ~2 % of the normal stiffness in contact penetration.
+  # Stiff contact; rubber compliance lives in the element springs. Contact rows: timeconst =
+  # timestep/2 with refsafe off and dmin = 0.9. Measured here: stiffer rows (timeconst <=
+  # 0.2 ms, or dmin >= 0.95 at the refsafe limit) made every element lose contact at the onset
+  # of sliding (shear collapsing to ~0 each cycle); this setting slides smoothly at exactly
+  # mu*N and costs ~2 % of the normal stiffness in contact penetration.
   opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_REFSAFE
   contact_solref = [params.timestep / 2, 1.0]
   contact_solimp = [0.9, 0.95, 1e-3, 0.5, 2.0]

@@ -331,10 +331,13 @@ def _cached(kind: str, key: dict, compute) -> np.ndarray:
   return value
 
 
-def _layer_key(params: FootpadParams, mesh: LayerMesh) -> dict:
-  return {"footprint": params.footprint, "grid": params.grid, "thickness": params.thickness,
-          "nu": params.poisson_ratio, "dies": params.die_positions().round(9).tolist(),
-          "mesh": dataclasses.asdict(mesh), "version": 1}
+def _layer_key(params: FootpadParams, mesh: LayerMesh, dies: bool = True) -> dict:
+  """What a finite-element result depends on (results are per unit E, so not E)."""
+  key = {"footprint": params.footprint, "grid": params.grid, "thickness": params.thickness,
+         "nu": params.poisson_ratio, "mesh": dataclasses.asdict(mesh), "version": 1}
+  if dies:
+    key["dies"] = params.die_positions().round(9).tolist()
+  return key
 
 
 def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
@@ -351,9 +354,9 @@ def element_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> n
   "bonded_plate": `plate_stiffness` (cached), each element scaled by thickness / local
   thickness where a crown thins the rubber; "uniform": free rubber columns.
   """
-  columns = params.element_stiffness()
   if params.stiffness_profile == "uniform":
-    return columns
-  key = _layer_key(params, mesh) | {"youngs_modulus": params.youngs_modulus}
-  flat = _cached("stiffness", key, lambda: plate_stiffness(params, mesh))
-  return flat * (columns / dataclasses.replace(params, crown_radius=np.inf).element_stiffness())
+    return params.element_stiffness()
+  per_e = _cached("stiffness", _layer_key(params, mesh, dies=False),
+                  lambda: plate_stiffness(params, mesh) / params.youngs_modulus)
+  crown = params.thickness / (params.thickness - params.crown_sag())
+  return params.youngs_modulus * per_e * crown[:, None]

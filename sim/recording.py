@@ -66,6 +66,11 @@ class Recording:
     idx = [known.index(n) for n in names]
     return self.select(np.isin(self.path, idx))
 
+  def on_path(self, *names: str) -> "Recording":
+    """The samples on the named paths (all paths if none) at their indentation (phase 1)."""
+    rec = self.paths(*names) if names else self
+    return rec.select(rec.phase == 1)
+
   def save(self, stem: str | os.PathLike) -> pathlib.Path:
     """Writes stem.npz and stem.json atomically; returns the .npz path."""
     stem = pathlib.Path(stem)

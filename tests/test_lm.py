@@ -66,7 +66,8 @@ def test_first_step_matches_scipy_lm():
   ref = scipy.optimize.least_squares(fun, theta0, jac=jac_res, method="lm", max_nfev=300)
   theta, state = jnp.asarray(theta0), jnp.asarray(mu)
   for _ in range(300):
-    theta, state, sse, _ = step(theta, state, xj, yj)
+    theta, state, sse_per_output, _ = step(theta, state, xj, yj)
+  sse = jnp.sum(sse_per_output)
   assert float(sse) == pytest.approx(2 * ref.cost, rel=0.02)
 
 
