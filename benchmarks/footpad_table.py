@@ -5,13 +5,13 @@ the given paths at every Z level (Sec. III-C); all three are tested on Testing P
 Networks train from several seeds (spawned from the run's one seed) and the table reports
 medians; per-seed numbers go to metrics.json, fitted estimators to DIR/estimators/.
 
-Known gap (measured): the simulated pad reports shear far better than the paper (test R2
-above 99 % against the paper's 72-84 %). With the 13 mm bonded layer the pad stays stuck over
-the +-3 mm strokes except at the lightest Z levels, the die kernel is linear, and the
-remaining nonlinearities (slip at light load, ADC clipping, noise) are small; the paper's
-error sources that are not simulated include the rubber's hysteresis and rate dependence
-(the `viscoelastic` effect is opt-in with assumed magnitudes), large-strain elasticity and
-stick-slip at higher loads.
+Known gap (measured): the networks report simulated shear far better than the paper (test
+R2 above 99 % against the paper's 72-84 %). The linear fit does not: with the default
+`p_delta` effect its sensitivity to shear grows with the normal load (x1.5 to x2.4 from 70 to
+210 N), so it misses by ~8 % NRMSE on X, near the paper; but that product of Fz and shear is a
+fixed function of the counts, which a network learns. The paper's networks are limited by what
+the counts do not determine: the rubber's hysteresis and rate dependence (the `viscoelastic`
+effect is opt-in with assumed magnitudes) and stick-slip history.
 """
 
 from __future__ import annotations

@@ -276,9 +276,9 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   return spec
 
 
-def element_forces(model: mujoco.MjModel, params: FootpadParams,
-                   qpos: np.ndarray) -> np.ndarray:
-  """Forces the plate applies to the rubber at each element, from joint positions.
+def element_state(model: mujoco.MjModel, params: FootpadParams,
+                  qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+  """Forces the plate applies to the rubber at each element, and the elements' deflections.
 
   The spring rates are read from the model, so they always match what was simulated.
 
@@ -287,7 +287,9 @@ def element_forces(model: mujoco.MjModel, params: FootpadParams,
     params: the same parameters.
     qpos: (..., nq) joint positions.
   Returns:
-    (..., num_elements, 3) forces, N; +z compresses the rubber.
+    forces (..., num_elements, 3), N, +z compressing the rubber; and deflections
+    (..., num_elements, 3), m: how far each element's contact point has moved from its rest
+    position relative to the PCB, +z compressing the rubber.
   """
   joints = [[model.joint(f"el{e}_{a}").id for a in AXES] for e in range(params.num_elements)]
   idx = model.jnt_qposadr[joints]
@@ -304,7 +306,15 @@ def element_forces(model: mujoco.MjModel, params: FootpadParams,
     k_long = model.tendon_stiffness[[model.tendon(f"el{e}_long").id
                                      for e in range(params.num_elements)]]
     f[..., 2] += k_long * (zv + q[..., 2])
-  return f
+    q = q.copy()
+    q[..., 2] += zv
+  return f, q
+
+
+def element_forces(model: mujoco.MjModel, params: FootpadParams,
+                   qpos: np.ndarray) -> np.ndarray:
+  """(..., num_elements, 3) forces of `element_state`, N."""
+  return element_state(model, params, qpos)[0]
 
 
 def cnc_qpos_index(model: mujoco.MjModel) -> np.ndarray:

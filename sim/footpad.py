@@ -236,6 +236,13 @@ class Timing:
   threads: int
 
 
+def element_couples(forces: np.ndarray, deflection: np.ndarray) -> np.ndarray:
+  """(..., num_elements, 2) couples (N m, along x and y) of the `p_delta` effect: the normal
+  force moved sideways by the shear deflection, the shear moved towards the PCB by the
+  compression (the layer kernel measures a shear's lever from the undeformed face)."""
+  return forces[..., 2:3] * deflection[..., :2] - forces[..., :2] * deflection[..., 2:3]
+
+
 def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
              threads: Optional[int] = None) -> tuple[recording.Recording, Timing]:
   """Runs the scene (no cache). `progress(done, total)` is called as episodes finish."""
@@ -253,6 +260,10 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   free = list(range(threads))
   cnc_idx = model_lib.cnc_qpos_index(model)
   g = kernel.reshape(len(kernel), -1).T
+  gc = None
+  if "p_delta" in effects:
+    couples = layer.couple_kernel(scene.params, scene.kernel)
+    gc = couples.reshape(len(couples), -1).T
 
   def work(i: int):
     slot = free.pop()
@@ -261,8 +272,10 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     finally:
       free.append(slot)
     t = time.perf_counter()
-    forces = model_lib.element_forces(model, scene.params, qpos)
+    forces, deflection = model_lib.element_state(model, scene.params, qpos)
     pressure = forces.reshape(len(forces), -1) @ g
+    if gc is not None:
+      pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
     chain = time.perf_counter() - t
     return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], physics, chain)
 

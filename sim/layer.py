@@ -202,6 +202,17 @@ def solve_block(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray, nu: float,
   return LayerSolution(xs, ys, zs, nu, u, k)
 
 
+def _patch_cells(xs: np.ndarray, ys: np.ndarray, patch, i: int):
+  """Index ranges of the face cells covering one patch; its edges must be grid lines."""
+  x0, x1, y0, y1 = patch
+  ix0, ix1 = (int(np.argmin(np.abs(xs - v))) for v in (x0, x1))
+  iy0, iy1 = (int(np.argmin(np.abs(ys - v))) for v in (y0, y1))
+  if not (np.isclose(xs[ix0], x0) and np.isclose(xs[ix1], x1) and np.isclose(ys[iy0], y0)
+          and np.isclose(ys[iy1], y1)):
+    raise ValueError(f"patch {i} edges do not fall on the finite-element grid lines")
+  return range(ix0, ix1), range(iy0, iy1)
+
+
 def patch_loads(xs: np.ndarray, ys: np.ndarray, nz: int,
                 patches: list[tuple[float, float, float, float]]) -> np.ndarray:
   """Consistent nodal forces of unit-total tractions on rectangles of the face z = 0.
@@ -216,20 +227,56 @@ def patch_loads(xs: np.ndarray, ys: np.ndarray, nz: int,
   """
   nx, ny = len(xs), len(ys)
   out = np.zeros((3 * nx * ny * nz, 3 * len(patches)))
-  for i, (x0, x1, y0, y1) in enumerate(patches):
-    ix0, ix1 = (int(np.argmin(np.abs(xs - v))) for v in (x0, x1))
-    iy0, iy1 = (int(np.argmin(np.abs(ys - v))) for v in (y0, y1))
-    if not (np.isclose(xs[ix0], x0) and np.isclose(xs[ix1], x1) and np.isclose(ys[iy0], y0)
-            and np.isclose(ys[iy1], y1)):
-      raise ValueError(f"patch {i} edges do not fall on the finite-element grid lines")
+  for i, patch in enumerate(patches):
+    x0, x1, y0, y1 = patch
     area = (x1 - x0) * (y1 - y0)
-    for jx in range(ix0, ix1):
-      for jy in range(iy0, iy1):
+    cells_x, cells_y = _patch_cells(xs, ys, patch, i)
+    for jx in cells_x:
+      for jy in cells_y:
         share = (xs[jx + 1] - xs[jx]) * (ys[jy + 1] - ys[jy]) / area / 4.0
         for cx, cy in ((0, 0), (1, 0), (0, 1), (1, 1)):
           node = (jx + cx) + nx * (jy + cy)
           for c in range(3):
             out[3 * node + c, 3 * i + c] += share
+  return out
+
+
+def patch_couples(xs: np.ndarray, ys: np.ndarray, nz: int,
+                  patches: list[tuple[float, float, float, float]]) -> np.ndarray:
+  """Consistent nodal forces of unit couples on rectangles of the face z = 0.
+
+  A couple is a normal traction (into the rubber) varying linearly across the patch, with no
+  net force and a unit first moment about the patch centre: t = (x - xc) / I_x for the couple
+  along x, and likewise along y. To first order it is what a patch's normal force f adds when
+  the patch moves by a small u (couple f * u, N m). The exact first-order change, a line load
+  on one edge less one on the other, is not used: concentrated loads excite the mesh-scale
+  pressure modes of the nearly incompressible elements (its die stresses were off by up to
+  2x from moving the patch by one cell), while this smooth traction agrees with it.
+
+  Returns:
+    (num_nodes * 3, 2 * len(patches)) forces: for patch i, columns 2i, 2i+1 carry the unit
+    couple along x and along y (N per N m).
+  """
+  nx, ny = len(xs), len(ys)
+  out = np.zeros((3 * nx * ny * nz, 2 * len(patches)))
+  for i, patch in enumerate(patches):
+    x0, x1, y0, y1 = patch
+    centre = np.array([x0 + x1, y0 + y1]) / 2
+    inertia = np.array([(x1 - x0) ** 3 * (y1 - y0), (x1 - x0) * (y1 - y0) ** 3]) / 12
+    cells_x, cells_y = _patch_cells(xs, ys, patch, i)
+    for jx in cells_x:
+      for jy in cells_y:
+        lo = np.array([xs[jx], ys[jy]])
+        size = np.array([xs[jx + 1] - xs[jx], ys[jy + 1] - ys[jy]])
+        # 2 x 2 Gauss points: exact for a bilinear shape function times a linear traction
+        for gx in _GAUSS2:
+          for gy in _GAUSS2:
+            r = (np.array([gx, gy]) + 1) / 2
+            t = (lo + r * size - centre) / inertia * np.prod(size) / 4
+            for cx, cy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+              shape = (r[0] if cx else 1 - r[0]) * (r[1] if cy else 1 - r[1])
+              node = (jx + cx) + nx * (jy + cy)
+              out[3 * node + 2, 2 * i:2 * i + 2] += shape * t
   return out
 
 
@@ -264,42 +311,55 @@ def _grid(params: FootpadParams, mesh: LayerMesh):
 
 
 def bonded_layer_kernel(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
-  """(num_dies, num_elements, 3) die pressure (Pa) per newton of element force."""
+  """(num_dies, num_elements, 5) die pressure: Pa per N of element force along x, y, z, then
+  Pa per N m of element couple along x, y (`patch_couples`), from one factorisation."""
   xs, ys, zs = _grid(params, mesh)
-  loads = patch_loads(xs, ys, len(zs), _patches(params))
+  patches = _patches(params)
+  loads = np.column_stack([patch_loads(xs, ys, len(zs), patches),
+                           patch_couples(xs, ys, len(zs), patches)])
   sol = solve_block(xs, ys, zs, params.poisson_ratio, loads)
-  p = -sol.stress_zz(params.die_positions())  # (dies, 3 * elements)
-  return p.reshape(len(p), params.num_elements, 3)
+  p = -sol.stress_zz(params.die_positions())  # (dies, 5 * elements)
+  e = params.num_elements
+  return np.concatenate([p[:, :3 * e].reshape(len(p), e, 3),
+                         p[:, 3 * e:].reshape(len(p), e, 2)], axis=2)
 
 
-def boussinesq_cerruti(points: np.ndarray, load_xy: np.ndarray) -> np.ndarray:
+def boussinesq_cerruti(points: np.ndarray, load_xy: np.ndarray,
+                       moved: bool = False) -> np.ndarray:
   """Compressive sigma_zz of an elastic half-space under unit surface point loads.
 
   Args:
     points: (P, 3) points (x, y, depth), m.
     load_xy: (L, 2) load points on the surface, m.
+    moved: also return the rate of change of the normal load's stress as the load point
+      moves along x and y (Pa per N m).
   Returns:
     (P, L, 3) pressure, Pa per N, for unit loads along x, y (Cerruti) and into the body
-    (Boussinesq): p = 3 z^2 (F_z z + F_x dx + F_y dy) / (2 pi R^5).
+    (Boussinesq): p = 3 z^2 (F_z z + F_x dx + F_y dy) / (2 pi R^5), dx = point - load;
+    with `moved`, (P, L, 5), the last two being d/d(load x, y) of the Boussinesq term,
+    15 z^3 (dx, dy) / (2 pi R^7).
   """
   d = points[:, None, :2] - load_xy[None, :, :]
   z = points[:, None, 2]
-  r5 = (np.sum(d**2, axis=-1) + z**2) ** 2.5
-  c = 3.0 * z**2 / (2.0 * np.pi * r5)
-  return np.stack([c * d[..., 0], c * d[..., 1], c * z], axis=-1)
+  r2 = np.sum(d**2, axis=-1) + z**2
+  c = 3.0 * z**2 / (2.0 * np.pi * r2**2.5)
+  out = [c * d[..., 0], c * d[..., 1], c * z]
+  if moved:
+    out += [5.0 * c * z * d[..., 0] / r2, 5.0 * c * z * d[..., 1] / r2]
+  return np.stack(out, axis=-1)
 
 
 def halfspace_kernel(params: FootpadParams, quadrature: int = 6) -> np.ndarray:
-  """(num_dies, num_elements, 3) half-space die pressure (Pa/N), each patch load spread
-  uniformly and integrated with a quadrature x quadrature midpoint rule."""
+  """(num_dies, num_elements, 5) half-space die pressure, laid out as `bonded_layer_kernel`'s,
+  each patch load spread uniformly over a quadrature x quadrature midpoint rule."""
   dx, dy = params.element_size
   offs = (np.arange(quadrature) + 0.5) / quadrature - 0.5
   ox, oy = np.meshgrid(offs * dx, offs * dy, indexing="ij")
   sub = np.stack([ox.ravel(), oy.ravel()], axis=1)
   centres = params.element_centres()
   pts = (centres[:, None, :] + sub[None]).reshape(-1, 2)
-  k = boussinesq_cerruti(params.die_positions(), pts)
-  return k.reshape(len(k), params.num_elements, len(sub), 3).mean(axis=2)
+  k = boussinesq_cerruti(params.die_positions(), pts, moved=True)
+  return k.reshape(len(k), params.num_elements, len(sub), 5).mean(axis=2)
 
 
 def plate_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:
@@ -334,18 +394,29 @@ def _cached(kind: str, key: dict, compute) -> np.ndarray:
 def _layer_key(params: FootpadParams, mesh: LayerMesh, dies: bool = True) -> dict:
   """What a finite-element result depends on (results are per unit E, so not E)."""
   key = {"footprint": params.footprint, "grid": params.grid, "thickness": params.thickness,
-         "nu": params.poisson_ratio, "mesh": dataclasses.asdict(mesh), "version": 1}
+         "nu": params.poisson_ratio, "mesh": dataclasses.asdict(mesh), "version": 2}
   if dies:
     key["dies"] = params.die_positions().round(9).tolist()
   return key
 
 
-def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
-               mesh: LayerMesh = LayerMesh()) -> np.ndarray:
-  """The kernel of the given kind; finite-element kernels are cached on disk by content hash."""
+def _kernels(params: FootpadParams, kernel: Kernel, mesh: LayerMesh) -> np.ndarray:
+  """Both kernels of one kind, (num_dies, num_elements, 5); finite-element ones cached."""
   if kernel is Kernel.HALFSPACE:
     return halfspace_kernel(params)
   return _cached("kernels", _layer_key(params, mesh), lambda: bonded_layer_kernel(params, mesh))
+
+
+def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
+               mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_dies, num_elements, 3) die pressure, Pa per N of element force along x, y, z."""
+  return _kernels(params, kernel, mesh)[..., :3]
+
+
+def couple_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
+                  mesh: LayerMesh = LayerMesh()) -> np.ndarray:
+  """(num_dies, num_elements, 2) die pressure, Pa per N m of element couple along x, y."""
+  return _kernels(params, kernel, mesh)[..., 3:]
 
 
 def element_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.ndarray:

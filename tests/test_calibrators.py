@@ -60,9 +60,9 @@ def test_z_is_estimated_far_better_than_shear(table):
     assert z < 3.0 and z < table[m]["X"]["nrmse_pct"] and z < table[m]["Y"]["nrmse_pct"], m
 
 
-@pytest.mark.xfail(strict=True, reason="simulated shear is nearly linear in the die counts "
-                   "(R2 > 99 %): the pad's error sources of the paper are not modelled; see "
-                   "footpad_table docstring")
+@pytest.mark.xfail(strict=True, reason="the networks learn the simulated shear (R2 > 99 %): "
+                   "the counts fix the force, since hysteresis and stick-slip history are not "
+                   "simulated by default; see footpad_table docstring")
 def test_shear_r2_in_the_papers_neighbourhood(table):
   for m in footpad_table.METHODS:
     for ax in ("X", "Y"):

@@ -1,10 +1,12 @@
 """The die-stress kernels against elastic closed forms and equilibrium."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from models.footpad import FootpadParams
-from sim import layer
+from sim import footpad, layer
 
 
 def _graded(half, fine, n_fine, n_coarse):
@@ -50,20 +52,32 @@ def real_layer():
   zs = np.linspace(0, p.thickness, mesh.layers + 1)
   dx, dy = p.element_size
   cx, cy = p.element_centres()[9]  # an off-centre element
-  loads = layer.patch_loads(xs, ys, len(zs), [(cx - dx / 2, cx + dx / 2, cy - dy / 2, cy + dy / 2)])
-  return layer.solve_block(xs, ys, zs, p.poisson_ratio, loads), (cx, cy)
+  patch = (cx - dx / 2, cx + dx / 2, cy - dy / 2, cy + dy / 2)
+  # the same patch moved by one cell of the mesh, -x, +x, -y, +y
+  sx, sy = dx / mesh.subdivisions, dy / mesh.subdivisions
+  moved = [(patch[0] + a, patch[1] + a, patch[2] + b, patch[3] + b)
+           for a, b in ((-sx, 0), (sx, 0), (0, -sy), (0, sy))]
+  loads = np.column_stack([layer.patch_loads(xs, ys, len(zs), [patch]),
+                           layer.patch_couples(xs, ys, len(zs), [patch]),
+                           layer.patch_loads(xs, ys, len(zs), moved)[:, 2::3]])
+  return layer.solve_block(xs, ys, zs, p.poisson_ratio, loads), (cx, cy), (sx, sy)
 
 
-def test_base_plane_equilibrium(real_layer):
-  sol, (x0, y0) = real_layer
-  # the plane through the centres of the elements adjoining the PCB
+def _base_plane(sol):
+  """Points on the plane through the centres of the elements adjoining the PCB, their areas
+  and the compressive stress there for every load case."""
   c = 0.5 * (sol.zs[-1] + sol.zs[-2])
   xc = 0.5 * (sol.xs[1:] + sol.xs[:-1])
   yc = 0.5 * (sol.ys[1:] + sol.ys[:-1])
   gx, gy = np.meshgrid(xc, yc, indexing="ij")
   pts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, c)], axis=1)
   area = np.outer(np.diff(sol.xs), np.diff(sol.ys)).ravel()
-  p = -sol.stress_zz(pts)  # columns: unit Fx, Fy, Fz on the patch
+  return pts, area, -sol.stress_zz(pts), c
+
+
+def test_base_plane_equilibrium(real_layer):
+  sol, (x0, y0), _ = real_layer
+  pts, area, p, c = _base_plane(sol)  # columns: unit Fx, Fy, Fz on the patch, ...
   # force: the normal stresses carry the applied normal force, and nothing of the shear
   assert np.sum(p[:, 2] * area) == pytest.approx(1.0, rel=0.02)
   assert abs(np.sum(p[:, 0] * area)) < 0.02
@@ -71,6 +85,49 @@ def test_base_plane_equilibrium(real_layer):
   assert np.sum(p[:, 2] * pts[:, 0] * area) == pytest.approx(x0, rel=0.02)
   assert np.sum(p[:, 0] * pts[:, 0] * area) == pytest.approx(c, rel=0.02)
   assert np.sum(p[:, 1] * pts[:, 1] * area) == pytest.approx(c, rel=0.02)
+
+
+def test_couple_is_a_normal_load_moved_sideways(real_layer):
+  """The unit couple's die stresses match the derivative of a uniform normal patch load's
+  stresses with respect to moving the patch (central difference over one mesh cell)."""
+  sol, _, (sx, sy) = real_layer
+  p = -sol.stress_zz(FootpadParams().die_positions())
+  moved_x = (p[:, 6] - p[:, 5]) / (2 * sx)
+  moved_y = (p[:, 8] - p[:, 7]) / (2 * sy)
+  # Within 15 % over the six dies: the linear traction and the moved uniform patch differ at
+  # second order, and the difference quotient carries the mesh's pressure noise (measured
+  # 5 % along x, 13 % along y for this element, 1-2 mm from a die column).
+  for couple, moved in ((p[:, 3], moved_x), (p[:, 4], moved_y)):
+    assert np.linalg.norm(couple - moved) < 0.15 * np.linalg.norm(moved)
+    assert np.sign(couple[np.argmax(np.abs(moved))]) == np.sign(moved[np.argmax(np.abs(moved))])
+
+
+def test_deformed_pad_statics(real_layer):
+  """Forces at the displaced contact point plus the p_delta couple balance the PCB's moment as
+  the statics of the deformed pad says: Fz at x0 + ux, Fx on a lever shortened by qz."""
+  sol, (x0, y0), _ = real_layer
+  pts, area, p, c = _base_plane(sol)
+  f = np.array([30.0, -20.0, 150.0])  # N on the rubber, +z compressing
+  d = np.array([0.0021, -0.0013, 0.0012])  # m: sideways deflection, compression
+  m = footpad.element_couples(f, d)
+  stress = p[:, :3] @ f + p[:, 3:5] @ m
+  assert np.sum(stress * pts[:, 0] * area) == pytest.approx(
+      f[2] * (x0 + d[0]) + f[0] * (c - d[2]), rel=0.02)
+  assert np.sum(stress * pts[:, 1] * area) == pytest.approx(
+      f[2] * (y0 + d[1]) + f[1] * (c - d[2]), rel=0.02)
+  # a couple carries no net force
+  assert abs(np.sum(p[:, 3] * area)) < 1e-6 / np.max(np.abs(pts[:, 0]))
+
+
+def test_halfspace_couple_is_a_moved_boussinesq_load():
+  p = FootpadParams()
+  couple = layer.halfspace_kernel(p)[:, :, 3]
+  step = 1e-5
+  moved = [dataclasses.replace(p, die_x=tuple(x - s for x in p.die_x)) for s in (step, -step)]
+  # moving the dies by -s is moving every load by +s
+  a, b = (layer.halfspace_kernel(q)[:, :, 2] for q in moved)
+  fd = (a - b) / (2 * step)
+  assert np.max(np.abs(couple - fd)) < 1e-5 * np.max(np.abs(fd))  # O(step^2) of the quotient
 
 
 def test_kernels_agree_in_sign_and_order_for_normal_load():

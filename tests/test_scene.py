@@ -116,3 +116,24 @@ def test_kernel_choice_changes_only_die_stress():
                                               kernel=layer.Kernel.HALFSPACE))
   assert a.element_force.tobytes() == b.element_force.tobytes()
   assert not np.array_equal(a.pressure, b.pressure)
+
+
+def test_p_delta_changes_only_die_stress_and_amplifies_the_shear_moment():
+  """The couples act after the physics; a normal force carried sideways by the shear adds to
+  the shear's own overturning moment (same sign), so the X column difference per newton of
+  Fx grows."""
+  scene = dataclasses.replace(SMALL, effects=("friction",))
+  a, _ = footpad.simulate(scene)
+  b, _ = footpad.simulate(dataclasses.replace(scene, effects=("friction", "p_delta")))
+  assert a.element_force.tobytes() == b.element_force.tobytes()
+  assert a.wrench.tobytes() == b.wrench.tobytes()
+  on = a.phase == 1
+  fx = a.wrench[on, 0]
+  x_pos = [i for i, d in enumerate(scene.params.die_positions()) if d[0] > 0]
+  x_neg = [i for i, d in enumerate(scene.params.die_positions()) if d[0] < 0]
+
+  def slope(rec):
+    diff = rec.pressure[on][:, x_pos].sum(axis=1) - rec.pressure[on][:, x_neg].sum(axis=1)
+    return np.polyfit(fx, diff, 1)[0]
+  assert abs(slope(b)) > 1.1 * abs(slope(a))
+  assert np.sign(slope(b)) == np.sign(slope(a))
