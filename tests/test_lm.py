@@ -31,9 +31,10 @@ def test_normal_equations_match_jacfwd():
   assert jtj.dtype == jnp.float64
 
 
-def test_recovers_noiseless_teacher_data():
+@pytest.mark.parametrize("damping", ["trainlm", "nielsen"])
+def test_recovers_noiseless_teacher_data(damping):
   x, y, _ = _teacher(n=600)
-  cfg = mlp.LMConfig(hidden=4, epochs=400, min_grad=1e-14, max_fail=1000)
+  cfg = mlp.LMConfig(hidden=4, epochs=400, min_grad=1e-14, max_fail=1000, damping=damping)
   res = mlp.train(x, y, x[:100], y[:100], cfg, seed=3)
   pred = res.net.predict(x)
   rel = np.sqrt(np.mean((pred - y) ** 2) / np.mean(y**2))
@@ -41,7 +42,8 @@ def test_recovers_noiseless_teacher_data():
   assert pred.dtype == np.float64
 
 
-def test_first_step_matches_scipy_lm():
+@pytest.mark.parametrize("damping", ["trainlm", "nielsen"])
+def test_first_step_matches_scipy_lm(damping):
   """Our damped step equals the damped least-squares step [J; sqrt(mu) I] d = [e; 0] solved by
   numpy's lstsq on the jacfwd Jacobian; from the same start both our LM and scipy's MINPACK LM
   (analytic Jacobian) reach the same error."""
@@ -52,8 +54,9 @@ def test_first_step_matches_scipy_lm():
   theta0 = np.asarray(teacher) + 0.2 * rng.standard_normal(teacher.shape)
   xj, yj = jnp.asarray(x), jnp.asarray(y)
   mu = 1e-3
-  step = mlp._lm_epoch_fn(4, mlp.LMConfig(hidden=4))
-  theta1, _, sse1, _ = step(jnp.asarray(theta0), jnp.asarray(mu), xj, yj)
+  step = mlp._lm_epoch_fn(4, mlp.LMConfig(hidden=4, damping=damping))
+  start = (jnp.asarray(mu), jnp.asarray(2.0))
+  theta1, _, sse1, _ = step(jnp.asarray(theta0), start, xj, yj)
   # reference: solve the damped least-squares problem [J; sqrt(mu) I] d = [e; 0] with lstsq
   jac = -np.asarray(jax.jacfwd(mlp.residuals)(jnp.asarray(theta0), xj, yj, 4))
   e = np.asarray(mlp.residuals(jnp.asarray(theta0), xj, yj, 4))
@@ -64,7 +67,7 @@ def test_first_step_matches_scipy_lm():
   fun = lambda t: np.asarray(mlp.residuals(jnp.asarray(t), xj, yj, 4))
   jac_res = lambda t: np.asarray(jax.jacfwd(mlp.residuals)(jnp.asarray(t), xj, yj, 4))
   ref = scipy.optimize.least_squares(fun, theta0, jac=jac_res, method="lm", max_nfev=300)
-  theta, state = jnp.asarray(theta0), jnp.asarray(mu)
+  theta, state = jnp.asarray(theta0), start
   for _ in range(300):
     theta, state, sse_per_output, _ = step(theta, state, xj, yj)
   sse = jnp.sum(sse_per_output)
