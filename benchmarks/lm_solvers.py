@@ -103,7 +103,7 @@ def run(ctx) -> dict:
                                  ("jaxopt LM", "jaxopt", "trainlm")):
     first = own is None
     cfg = mlp.LMConfig(hidden=h, backend=backend, damping=damping,
-                       max_fail=6 if first else 10**9, epochs=1000 if first else 200)
+                       max_fail=6 if first else 10**9, epochs=1000 if backend == "own" else 200)
     res = mlp.train(np.asarray(xj), np.asarray(yj), np.asarray(xv), np.asarray(yv), cfg,
                     start=theta0, progress=ctx.progress(f"{name} epochs"))
     per_iter = res.seconds / max(res.epochs, 1)
@@ -158,8 +158,10 @@ def run(ctx) -> dict:
 
   jtj_s = _dense_jtj_seconds(len(x) * o, n_par)
   own_rows = [r for r in results if r["solver"].startswith("own")]
-  others = [r for r in results if not r["solver"].startswith("own") and r["outcome"] == "reached"]
-  fastest_other = min((r["seconds"] for r in others), default=None)
+  others = [r for r in results if not r["solver"].startswith("own")]
+  # A solver that missed the target would have needed at least the time it ran.
+  bound = min((r["seconds"] for r in others), default=None)
+  exact = any(r["outcome"] == "reached" and r["seconds"] == bound for r in others)
   ctx.print(f"\ntarget validation MSE (scaled units) {target:.4g}: own LM's best, epoch "
             f"{own.best_epoch} of {own.epochs} ({own.stop.name})")
   ctx.print(f"{'solver':24s} {'outcome':>24s} {'seconds':>9s} {'iterations':>11s} "
@@ -173,11 +175,13 @@ def run(ctx) -> dict:
   speedup = {}
   for r in own_rows:
     reached = r["outcome"] == "reached" and r["seconds"] > 0
-    speedup[r["solver"]] = fastest_other / r["seconds"] if fastest_other and reached else None
-    ctx.print(f"{r['solver']} speed-up to the target over the fastest other solver that "
-              "reached it: " + (f"{speedup[r['solver']]:.1f}x" if speedup[r["solver"]] else
-                                "none (a solver did not reach the target within its cap)"))
+    speedup[r["solver"]] = bound / r["seconds"] if bound and reached else None
+    ctx.print(f"{r['solver']} speed-up to the target over the fastest other solver: " + (
+        "none (it did not reach the target)" if speedup[r["solver"]] is None else
+        f"{speedup[r['solver']]:.1f}x" if exact else
+        f"at least {speedup[r['solver']]:.1f}x (no other solver reached it in the time it ran)"))
   return {"samples": {"train": len(x), "validation": len(va)}, "parameters": n_par,
           "target_val_mse_scaled": target, "solvers": results,
           "dense_jtj_seconds": jtj_s, "own_per_iteration_over_jtj": ratio,
-          "speedup_over_fastest_other": speedup, "effects": list(scene.effects)}
+          "speedup_over_fastest_other": speedup, "speedup_is_lower_bound": not exact,
+          "effects": list(scene.effects)}

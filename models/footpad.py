@@ -55,9 +55,9 @@ class FootpadParams:
     timestep: simulation step, s; one step per 1 kHz sample (paper Sec. III-A).
     cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at a ~220 N peak.
     cnc_mass: moving mass of each CNC axis (as joint armature), kg.
-    relaxation_fraction: for the `viscoelastic` effect, the share of each element's normal
-      stiffness that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
-    relaxation_time: for the `viscoelastic` effect, the Maxwell arm's time constant, s.
+    relaxation_fraction: for the `viscoelastic` effect, the share of each element's stiffness
+      (every axis) that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
+    relaxation_time: for the `viscoelastic` effect, the Maxwell arms' time constant, s.
       Assumed 1 s.
     stiffness_profile: "bonded_plate" takes each element's spring rates from the finite-element
       block under a rigid plate stuck to its face, moved along x, y and z in turn (its nodal
@@ -169,9 +169,9 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   Args:
     params: physical parameters.
     friction: frictional contact (condim 3) when True; frictionless (condim 1) otherwise.
-    viscoelastic: each element's normal spring becomes a standard linear solid: the long-term
-      spring (a fixed tendon over the two z joints) in parallel with a Maxwell arm (spring on
-      the tip's z joint, dashpot on an intermediate z joint).
+    viscoelastic: each element's springs become standard linear solids, per axis: the
+      long-term spring (a fixed tendon over the axis's two joints) in parallel with a Maxwell
+      arm (spring on the tip's joint, dashpot on an intermediate body's joint).
     stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
       (`FootpadParams.element_stiffness`); see `sim.layer.element_stiffness`.
   Returns:
@@ -242,28 +242,26 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
     r = params.tip_radius
     parent = carriage
     pos = [centres[e, 0], centres[e, 1], sag[e] + r]
-    kz = k[e, 2]
-    if viscoelastic:
-      k1 = params.relaxation_fraction * k[e, 2]
+    tip_k = k[e]
+    if viscoelastic:  # dashpots on an intermediate body, Maxwell springs on the tip's joints
+      tip_k = params.relaxation_fraction * k[e]
       parent = carriage.add_body(name=f"el{e}_v", pos=pos)
-      parent.add_joint(name=f"el{e}_zv", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
-                       damping=k1 * params.relaxation_time)
+      for i, axis in enumerate(AXES):
+        parent.add_joint(name=f"el{e}_{axis}v", type=mujoco.mjtJoint.mjJNT_SLIDE,
+                         axis=np.eye(3)[i], damping=tip_k[i] * params.relaxation_time)
       parent.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
                       contype=0, conaffinity=0, group=3)
       pos = [0, 0, 0]
-      kz = k1
     el = parent.add_body(name=f"el{e}", pos=pos)
     for i, axis in enumerate(AXES):
-      ax = [0.0, 0.0, 0.0]
-      ax[i] = 1.0
-      stiff = kz if i == 2 else k[e, i]
-      el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=ax,
-                   stiffness=stiff,
+      el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i],
+                   stiffness=tip_k[i],
                    damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
-    if viscoelastic:
-      tendon = spec.add_tendon(name=f"el{e}_long", stiffness=[k[e, 2], 0, 0])
-      tendon.wrap_joint(f"el{e}_zv", 1.0)
-      tendon.wrap_joint(f"el{e}_z", 1.0)
+    if viscoelastic:  # the long-term springs span both joints of each axis
+      for i, axis in enumerate(AXES):
+        tendon = spec.add_tendon(name=f"el{e}_long_{axis}", stiffness=[k[e, i], 0, 0])
+        tendon.wrap_joint(f"el{e}_{axis}v", 1.0)
+        tendon.wrap_joint(f"el{e}_{axis}", 1.0)
     el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
                 # Tips collide with the plate only, never with each other.
                 contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
@@ -300,14 +298,13 @@ def element_state(model: mujoco.MjModel, params: FootpadParams,
   else:
     q = qpos[..., idx]
   f = k * q
-  if model.ntendon:  # standard linear solid: long-term spring on zv + z, Maxwell spring on z
-    zv = qpos[..., model.jnt_qposadr[[model.joint(f"el{e}_zv").id
-                                      for e in range(params.num_elements)]]]
-    k_long = model.tendon_stiffness[[model.tendon(f"el{e}_long").id
+  if model.ntendon:  # standard linear solid: long-term spring on qv + q, Maxwell spring on q
+    names = [[f"el{e}_{a}" for a in AXES] for e in range(params.num_elements)]
+    qv = qpos[..., model.jnt_qposadr[[[model.joint(n + "v").id for n in row] for row in names]]]
+    k_long = model.tendon_stiffness[[[model.tendon(f"el{e}_long_{a}").id for a in AXES]
                                      for e in range(params.num_elements)]]
-    f[..., 2] += k_long * (zv + q[..., 2])
-    q = q.copy()
-    q[..., 2] += zv
+    q = q + qv
+    f = f + k_long * q
   return f, q
 
 

@@ -35,11 +35,13 @@ FOOTPAD_EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "FootpadParams.friction = 0.9: 0.8-1 reproduces the paper's ~220 N shear ranges "
            "(DESIGN.md, measured). Off: frictionless contact, no shear."),
     Effect("viscoelastic", Kind.MODEL,
-           "Stress relaxation of the polyurethane in compression: a standard linear solid per "
-           "element (the element spring in parallel with a Maxwell arm of stiffness "
-           "relaxation_fraction * k and time constant relaxation_time). Magnitudes are assumed "
-           "(20 % over 1 s, of the order reported for soft cast polyurethanes); no datasheet "
-           "gives them for Vytaflex 20."),
+           "Stress relaxation of the polyurethane: a standard linear solid per element and "
+           "axis (the element spring in parallel with a Maxwell arm of stiffness "
+           "relaxation_fraction * k and time constant relaxation_time). Rubber relaxes in "
+           "shear (its bulk response is nearly elastic), so the shear springs relax alike, "
+           "and the bonded layer's normal stiffness, which its shear modulus sets, too. "
+           "Magnitudes are assumed (20 % over 1 s, of the order reported for soft cast "
+           "polyurethanes); no datasheet gives them for Vytaflex 20."),
     Effect("p_delta", Kind.STRESS,
            "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "
            "contact face has moved, sideways by each element's shear deflection u and towards "

@@ -312,9 +312,10 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 
 def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
-  # are not reused: 2 = element rates from the bonded finite-element block.
+  # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
+  # in shear too.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
-          "physics": "2"}
+          "physics": "3"}
 
 
 def cache_key(scene: FootpadScene) -> str:

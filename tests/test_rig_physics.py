@@ -91,23 +91,31 @@ def test_element_stiffness_sums_to_EA_over_h():
   assert k[:, 0].sum() == pytest.approx(P.shear_modulus * area / P.thickness, rel=1e-12)
 
 
-def test_viscoelastic_relaxes_with_its_time_constant():
+@pytest.mark.parametrize("axis", [2, 0])
+def test_viscoelastic_relaxes_with_its_time_constant(axis):
+  """Held at a fixed press (axis 2) or a press plus a sideways hold (axis 0), the plate force
+  along that axis exceeds the long-term springs' force (long-term rate x the elements'
+  deflection) by a Maxwell term that decays with relaxation_time."""
   model = model_lib.build_spec(P, viscoelastic=True).compile()
   data = mujoco.MjData(model)
-  z = 0.001
-  data.ctrl[:] = [0, 0, -z]
-  forces = []
+  data.ctrl[:] = [0, 0, -0.001]
+  if axis == 0:
+    for _ in range(3000):  # let the press relax first
+      mujoco.mj_step(model, data)
+    data.ctrl[0] = 0.0003  # well inside sticking: 0.3 mm x 23 kN/m << 0.9 x 110 N
+  modulus = P.youngs_modulus if axis == 2 else P.shear_modulus
+  k_long = modulus * P.footprint[0] * P.footprint[1] / P.thickness
+  excess = []
   for _ in range(4000):
     mujoco.mj_step(model, data)
-    forces.append(data.sensordata[2])
-  k_long = P.youngs_modulus * P.footprint[0] * P.footprint[1] / P.thickness
-  indentation = -data.qpos[model_lib.cnc_qpos_index(model)[2]]
-  # Long-term: the relaxed spring alone; early: more, decaying with relaxation_time.
-  assert forces[-1] == pytest.approx(k_long * indentation, rel=0.05)
-  excess = np.array(forces) - forces[-1]
+    # the deflection, not the CNC's travel: over seconds the soft friction rows let stuck
+    # tips creep by ~4 % of a sideways hold (measured)
+    deflection = model_lib.element_state(model, P, data.qpos)[1][:, axis].mean()
+    excess.append(abs(data.sensordata[axis]) - k_long * abs(deflection))
   t1 = int(round(P.relaxation_time / P.timestep))
-  ratio = excess[200 + t1] / excess[200]
-  assert ratio == pytest.approx(math.exp(-1.0), abs=0.08)
+  assert excess[200] > 0.1 * P.relaxation_fraction * abs(data.sensordata[axis])
+  assert excess[200 + t1] / excess[200] == pytest.approx(math.exp(-1.0), abs=0.05)
+  assert abs(excess[-1]) < 0.03 * excess[200]
 
 
 def test_bonded_plate_rates_soften_edges_and_set_the_press():
