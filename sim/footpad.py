@@ -21,7 +21,7 @@ import mujoco.rollout
 import numpy as np
 
 from models import footpad as model_lib
-from sim import layer, recording, sensor_chain, trajectories
+from sim import layer, recording, sensor_chain, settings, trajectories
 from sim.effects import FOOTPAD_EFFECTS, check_effects
 
 PAPER_Z_LEVELS = tuple(round(0.0001 * i, 4) for i in range(16))  # 0-1.5 mm in 0.1 mm steps
@@ -96,56 +96,7 @@ class FootpadScene:
   def with_overrides(self, overrides: dict[str, str]) -> "FootpadScene":
     """A copy with `key=value` settings applied; keys name scene fields or `params.*`,
     `adc.*` fields (e.g. params.friction=0.8, adc.vref=5, z_levels=0.0005,0.001)."""
-    scene = self
-    for key, text in overrides.items():
-      scene = _override(scene, key, text)
-    return scene
-
-
-def _parse(text: str, like):
-  if isinstance(like, bool):
-    return text.lower() in ("1", "true", "yes", "on")
-  if isinstance(like, tuple):
-    items = [t for t in text.split(",") if t]
-    return tuple(_parse(t, like[0]) if like else float(t) for t in items)
-  if isinstance(like, int):
-    return int(text)
-  if isinstance(like, float) or like is None:
-    return float(text)
-  if isinstance(like, layer.Kernel):
-    return layer.Kernel(text)
-  return text
-
-
-def _override(obj, key: str, text: str):
-  head, _, rest = key.partition(".")
-  fields = {f.name: f for f in dataclasses.fields(obj)}
-  if head not in fields:
-    raise ValueError(f"unknown setting {key!r}: allowed "
-                     f"{', '.join(sorted(_setting_names(obj)))}")
-  current = getattr(obj, head)
-  if rest:
-    if not dataclasses.is_dataclass(current):
-      raise ValueError(f"unknown setting {key!r}: {head} has no sub-settings")
-    return dataclasses.replace(obj, **{head: _override(current, rest, text)})
-  if dataclasses.is_dataclass(current):
-    raise ValueError(f"setting {key!r} needs a field, e.g. {head}.<name>")
-  try:
-    value = _parse(text, current)
-  except ValueError as err:
-    raise ValueError(f"setting {key}={text!r} could not be read: {err}") from None
-  return dataclasses.replace(obj, **{head: value})
-
-
-def _setting_names(obj, prefix: str = "") -> list[str]:
-  out = []
-  for f in dataclasses.fields(obj):
-    v = getattr(obj, f.name)
-    if dataclasses.is_dataclass(v):
-      out += _setting_names(v, prefix + f.name + ".")
-    else:
-      out.append(prefix + f.name)
-  return out
+    return settings.apply(self, overrides)
 
 
 # ---------------------------------------------------------------------------------------------

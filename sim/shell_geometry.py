@@ -95,14 +95,15 @@ POSE_NAMES = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
 def map_quality(jacobian: np.ndarray, length_scale: float = 0.025,
                 rtol: float = 1e-9) -> MapQuality:
   """Rank, condition number and lost directions of an (8, 6) height map."""
-  scaled = np.asarray(jacobian, float) * np.array([1, 1, 1, length_scale, length_scale,
+  # a rotation counts as the arc it sweeps at length_scale
+  scaled = np.asarray(jacobian, float) / np.array([1, 1, 1, length_scale, length_scale,
                                                     length_scale])
   _, sv, vt = np.linalg.svd(scaled)
   rank = int(np.sum(sv > rtol * sv[0]))
   lost = []
   for v in vt[rank:]:
     v = v / np.max(np.abs(v))
-    lost.append(" + ".join(f"{c:.2g} {n}" for c, n in zip(v, POSE_NAMES) if abs(c) > 1e-6))
+    lost.append(" + ".join(f"{c:.2g} {n}" for c, n in zip(v, POSE_NAMES) if abs(c) > 1e-3))
   cond = float(sv[0] / sv[rank - 1]) if rank == 6 else float("inf")
   return MapQuality(rank, cond, tuple(lost))
 
