@@ -1,0 +1,48 @@
+"""The photointerrupter curve and the paper's 1/r fit (Eqns 1-2)."""
+
+import numpy as np
+import pytest
+
+from sim.photointerrupter import Photointerrupter, fit_inverse_r, range_from_counts
+
+S = Photointerrupter()
+
+
+def test_matches_the_papers_figure_4_points():
+  assert S.counts(0.002) == pytest.approx(3900, abs=3)
+  assert S.counts(0.004) == pytest.approx(1975, abs=1)
+
+
+def test_response_peaks_near_0_8_mm_and_falls_to_contact():
+  r = np.linspace(1e-7, 0.003, 30001)
+  unclipped = Photointerrupter(full_scale=10**9)
+  s = unclipped.counts(r)
+  assert r[np.argmax(s)] == pytest.approx(S.peak, rel=0.01)
+  assert s[0] < 0.01 * s.max() + S.b
+  # the ADC clips what the amplifier passes below the window
+  assert S.counts(0.0008) == S.full_scale
+
+
+def test_fit_recovers_a_b_exactly_on_noiseless_in_window_data():
+  r = np.linspace(*S.window, 200)
+  a, b, worst = fit_inverse_r(r, S.counts(r, near_field=False))
+  assert a == pytest.approx(S.a, rel=1e-12) and b == pytest.approx(S.b, rel=1e-10)
+  assert worst < 1e-12
+  # with the near-field fall-off the window still fits within the paper's 20 um (Fig. 4b)
+  a, b, worst = fit_inverse_r(r, S.counts(r))
+  assert worst < 20e-6
+
+
+def test_range_inverts_counts_and_flags_no_reflector():
+  r = np.array([0.002, 0.003, 0.004])
+  np.testing.assert_allclose(range_from_counts(S.counts(r, near_field=False), S.a, S.b), r,
+                             rtol=1e-12)
+  assert np.isnan(range_from_counts(np.array([S.b]), S.a, S.b)[0])
+  assert S.counts(np.array([np.nan]))[0] == S.b
+
+
+def test_bad_sweep_is_named():
+  with pytest.raises(ValueError, match="1-D"):
+    fit_inverse_r(np.ones(5), np.ones(4))
+  with pytest.raises(ValueError, match="> 0"):
+    fit_inverse_r(np.array([0.002, 0.0, 0.003]), np.ones(3))
