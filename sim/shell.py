@@ -1,0 +1,213 @@
+"""The shell scene: hand-applied wrench sweeps on the spring-mounted shell, at 100 Hz frames.
+
+A scene is declarative (`ShellScene`). `hand_loads` draws smooth random wrenches like the
+paper's slow manual loading (about +-1 N and +-60 mN m in every axis, Sec. III-A); `simulate`
+applies them to the shell through `xfrc_applied` with `mujoco.rollout` (one continuous
+session per thread, each starting and ending at rest), and returns per frame the shell's
+pose, each reflector's height above its sensor (closed form from the mount joints), and the
+F/T body's reading (sign flipped to the wrench on the shell, tared at no load) as truth.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import os
+import time
+import warnings
+from typing import Callable, Optional
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+import scipy.interpolate
+
+from models import shell as model_lib
+from sim import photointerrupter, shell_geometry
+
+PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
+FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
+WINDOW = photointerrupter.Photointerrupter().window
+
+Progress = Callable[[int, int], None]
+
+
+@dataclasses.dataclass(frozen=True)
+class ShellScene:
+  """Everything that determines a shell run.
+
+  Attributes:
+    params: shell, mount and layout.
+    frames: 100 Hz frames to record (paper: 97526 calibration, 42316 test).
+    steps_per_frame: physics steps per frame (1 ms steps at the default).
+    force_range: largest hand force per axis, N (paper: about 1 N).
+    torque_range: largest hand torque per axis, N m (paper: about 60 mN m).
+    knot_interval: time between the hand's random targets, s (slow manual loading; assumed
+      0.5 s).
+    downward_bias: in [0, 1]; 0 draws Fz evenly in +-force_range, 1 only downward (the
+      paper's calibration lacked upward forces, Sec. III-B).
+    sessions: continuous loading sessions, run in parallel, each from rest to rest.
+    seed: one integer for every random draw.
+  """
+  params: model_lib.ShellParams = model_lib.ShellParams()
+  frames: int = PAPER_FRAMES["calibration"]
+  steps_per_frame: int = 10
+  force_range: float = 1.0
+  torque_range: float = 0.06
+  knot_interval: float = 0.5
+  downward_bias: float = 0.0
+  sessions: int = 2
+  seed: int = 0
+
+  def validate(self) -> None:
+    self.params.validate()
+    checks = [
+        (1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames),
+        (1 <= self.steps_per_frame <= 100, "steps_per_frame", "[1, 100]", self.steps_per_frame),
+        (0 < self.force_range <= 5, "force_range", "(0, 5] N", self.force_range),
+        (0 < self.torque_range <= 0.3, "torque_range", "(0, 0.3] N m", self.torque_range),
+        (0.05 <= self.knot_interval <= 10, "knot_interval", "[0.05, 10] s", self.knot_interval),
+        (0 <= self.downward_bias <= 1, "downward_bias", "[0, 1]", self.downward_bias),
+        (1 <= self.sessions <= 64, "sessions", "[1, 64]", self.sessions),
+        (int(self.seed) == self.seed and self.seed >= 0, "seed", "integers >= 0", self.seed),
+    ]
+    for ok, name, allowed, value in checks:
+      if not ok:
+        raise ValueError(f"{name}={value!r} is out of range: allowed {allowed}")
+    dt = self.params.timestep * self.steps_per_frame
+    if abs(dt * FRAME_RATE - 1) > 1e-9:
+      raise ValueError(f"timestep x steps_per_frame = {dt} s: must be one 100 Hz frame")
+
+
+def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.ndarray:
+  """(steps, 6) smooth random wrench (N, N m) about the F/T site, one per physics step.
+
+  Random targets every knot_interval, uniform in each axis's range, joined by a cubic
+  spline with zero slope at rest at both ends.
+  """
+  dt = scene.params.timestep
+  n_knots = max(2, int(np.ceil(steps * dt / scene.knot_interval)) + 1)
+  lim = np.array([scene.force_range] * 3 + [scene.torque_range] * 3)
+  lo = -lim.copy()
+  hi = lim.copy()
+  # the bias moves the upper bound of Fz down towards 0 (only pushing down on the shell)
+  hi[2] = scene.force_range * (1 - scene.downward_bias)
+  knots = rng.uniform(lo, hi, (n_knots, 6))
+  knots[0] = knots[-1] = 0.0
+  t_knots = np.linspace(0.0, steps * dt, n_knots)
+  spline = scipy.interpolate.CubicSpline(t_knots, knots, bc_type="clamped")
+  return spline(np.arange(steps) * dt)
+
+
+@dataclasses.dataclass(frozen=True)
+class ShellRun:
+  """Frames of a shell run.
+
+  Attributes:
+    pose: (F, 6) mount joints: shell displacement (m) and hinge angles (rad).
+    height: (F, 8) reflector heights above P1..P8, m.
+    wrench: (F, 6) F/T truth: force (N) and torque about the F/T site (N m) on the shell side,
+      tared at no load.
+    applied: (F, 6) the hand's wrench about the F/T site, N and N m.
+    session: (F,) index of the continuous session.
+    seconds: wall time of the physics, s.  steps: physics steps.
+    out_of_window: share of frames with any height outside the sensor's 2-4 mm window.
+    bottomed: share of frames with any reflector at or below the PCB (the shell would hit the
+      chassis; that contact is not simulated).
+  """
+  pose: np.ndarray
+  height: np.ndarray
+  wrench: np.ndarray
+  applied: np.ndarray
+  session: np.ndarray
+  seconds: float
+  steps: int
+  out_of_window: float
+  bottomed: float
+
+
+def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray) -> np.ndarray:
+  """(..., 8) heights from mount joint positions (..., 6): the closed form of the joint chain
+  (slides, then hinges about x, turned y, turned z through the elastic centre)."""
+  pose = np.asarray(pose, float)
+  return shell_geometry.heights(params, shell_geometry.rotation(pose[..., 3:]), pose[..., :3],
+                                centre=model_lib.elastic_centre(params))
+
+
+def _xfrc(model: mujoco.MjModel, data: mujoco.MjData, wrench: np.ndarray) -> np.ndarray:
+  """(T, nbody * 6) xfrc_applied putting `wrench` (about the F/T site) on the shell."""
+  mujoco.mj_forward(model, data)
+  com = data.body("shell").xipos
+  site = data.site("ft").xpos
+  out = np.zeros((len(wrench), model.nbody, 6))
+  b = model.body("shell").id
+  out[:, b, :3] = wrench[:, :3]
+  # the same wrench about the shell's centre of mass: M_com = M_site + (site - com) x F
+  out[:, b, 3:] = wrench[:, 3:] + np.cross(site - com, wrench[:, :3])
+  return out.reshape(len(wrench), -1)
+
+
+def simulate(scene: ShellScene, progress: Optional[Progress] = None,
+             threads: Optional[int] = None) -> ShellRun:
+  """Runs the scene's sessions in parallel; `progress(done, total)` per finished chunk."""
+  scene.validate()
+  model = model_lib.build_spec(scene.params).compile()
+  per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
+  seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)
+  threads = threads or min(os.cpu_count() or 1, scene.sessions)
+  spf = scene.steps_per_frame
+  q_adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  sens = [model.sensor("ft_force").adr[0], model.sensor("ft_torque").adr[0]]
+  state_spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+  chunk_frames = 5000
+  total_chunks = int(sum(np.ceil(per_session / chunk_frames)))
+  done = [0]
+
+  def run_session(i: int):
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    tare = np.concatenate([data.sensordata[sens[0]:sens[0] + 3],
+                           data.sensordata[sens[1]:sens[1] + 3]])
+    state = np.empty(mujoco.mj_stateSize(model, state_spec))
+    mujoco.mj_getState(model, data, state, state_spec)
+    loads = hand_loads(scene, int(per_session[i]) * spf, np.random.default_rng(seqs[i]))
+    xfrc = _xfrc(model, data, loads)
+    poses, ft = [], []
+    for start in range(0, len(loads), chunk_frames * spf):
+      ctrl = xfrc[start:start + chunk_frames * spf]
+      st, sd = mujoco.rollout.rollout(model, data, state, ctrl[None],
+                                      control_spec=mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+      state = st[0, -1]
+      # the frame is the state after each frame's last step
+      poses.append(st[0, spf - 1::spf, 1:1 + model.nq][:, q_adr])
+      raw = np.concatenate([sd[0, spf - 1::spf, sens[0]:sens[0] + 3],
+                            sd[0, spf - 1::spf, sens[1]:sens[1] + 3]], axis=1)
+      ft.append(-(raw - tare))  # child-to-parent reading, flipped to the shell side
+      done[0] += 1
+      if progress:
+        progress(done[0], total_chunks)
+    if not np.isfinite(state).all():
+      raise RuntimeError(f"session {i}: the shell's state became non-finite")
+    return np.concatenate(poses), np.concatenate(ft), loads[spf - 1::spf]
+
+  t0 = time.perf_counter()
+  with concurrent.futures.ThreadPoolExecutor(threads) as pool:
+    parts = list(pool.map(run_session, range(scene.sessions)))
+  seconds = time.perf_counter() - t0
+  pose = np.concatenate([p[0] for p in parts])
+  height = heights_from_pose(scene.params, pose)
+  lo, hi = WINDOW
+  out = float(np.mean(np.any((height < lo) | (height > hi), axis=1)))
+  bottomed = float(np.mean(np.any(height <= 0.0, axis=1)))
+  if bottomed > 0:
+    warnings.warn(f"{bottomed:.1%} of frames drive a reflector into the PCB (the shell would "
+                  f"hit the chassis, which is not simulated): lower force_range "
+                  f"({scene.force_range} N) or torque_range ({scene.torque_range} N m)",
+                  stacklevel=2)
+  return ShellRun(pose=pose, height=height,
+                  wrench=np.concatenate([p[1] for p in parts]),
+                  applied=np.concatenate([p[2] for p in parts]),
+                  session=np.concatenate([np.full(len(p[0]), i, np.int32)
+                                          for i, p in enumerate(parts)]),
+                  seconds=seconds, steps=int(per_session.sum()) * spf, out_of_window=out,
+                  bottomed=bottomed)

@@ -1,0 +1,83 @@
+"""The shell scene: hand loads, F/T truth, reproducibility, bad input."""
+
+import dataclasses
+
+import mujoco
+import numpy as np
+import pytest
+
+from models import shell as model_lib
+from sim import shell, shell_geometry
+
+SMALL = shell.ShellScene(frames=3000, force_range=0.5, torque_range=0.02, knot_interval=2.0,
+                         seed=3)
+
+
+@pytest.fixture(scope="module")
+def run():
+  return shell.simulate(SMALL)
+
+
+def test_tared_ft_equals_the_applied_wrench_under_slow_loading(run):
+  """The hand's wrench acts at the shell's centre of mass as it moves; about the F/T site it
+  is M + (com - site) x F. Under slow loading the tared F/T reading equals it within 1 %."""
+  model = model_lib.build_spec(SMALL.params).compile()
+  data = mujoco.MjData(model)
+  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  mujoco.mj_kinematics(model, data)
+  com0 = data.body("shell").xipos.copy()
+  site = data.site("ft").xpos.copy()
+  moved = []
+  for q in run.pose:
+    data.qpos[adr] = q
+    mujoco.mj_kinematics(model, data)
+    moved.append(data.body("shell").xipos - com0)
+  force = run.applied[:, :3]
+  torque = run.applied[:, 3:] + np.cross(np.array(moved), force)
+  expected = np.column_stack([force, torque])
+  err = np.sqrt(np.mean((run.wrench - expected) ** 2, axis=0))
+  scale = np.sqrt(np.mean(expected**2, axis=0))
+  assert np.all(err < 0.01 * scale), err / scale
+  assert site[2] < com0[2]
+
+
+def test_heights_from_joints_equal_rays(run):
+  model = model_lib.build_spec(SMALL.params).compile()
+  data = mujoco.MjData(model)
+  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  for i in range(0, len(run.pose), 300):
+    data.qpos[adr] = run.pose[i]
+    mujoco.mj_kinematics(model, data)
+    np.testing.assert_allclose(shell_geometry.ray_heights(model, data, SMALL.params),
+                               run.height[i], atol=1e-9)
+
+
+def test_same_seed_same_bytes_other_seed_other_loads(run):
+  again = shell.simulate(SMALL)
+  assert again.pose.tobytes() == run.pose.tobytes()
+  assert again.wrench.tobytes() == run.wrench.tobytes()
+  other = shell.simulate(dataclasses.replace(SMALL, seed=4))
+  assert not np.allclose(other.applied, run.applied)
+
+
+def test_loads_stay_in_range_and_bias_pushes_down():
+  rng = np.random.default_rng(0)
+  loads = shell.hand_loads(dataclasses.replace(SMALL, downward_bias=1.0), 20000, rng)
+  assert np.all(loads[:, 2] <= 1e-9 + 0.1 * SMALL.force_range)  # spline overshoot is small
+  assert np.mean(loads[:, 2]) < -0.2 * SMALL.force_range
+  assert np.max(np.abs(loads[:, :3])) < 1.2 * SMALL.force_range
+
+
+def test_bottoming_out_is_reported():
+  with pytest.warns(UserWarning, match="into the PCB"):
+    r = shell.simulate(dataclasses.replace(SMALL, frames=2000, force_range=4.0))
+  assert 0 < r.bottomed <= r.out_of_window <= 1
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(frames=0), "frames"), (dict(torque_range=-1.0), "torque_range"),
+    (dict(downward_bias=2.0), "downward_bias"), (dict(steps_per_frame=3), "100 Hz"),
+])
+def test_bad_scene_is_named(change, message):
+  with pytest.raises(ValueError, match=message):
+    shell.simulate(dataclasses.replace(SMALL, **change))
