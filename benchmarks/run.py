@@ -16,7 +16,7 @@ import time
 from typing import Callable, Optional
 
 BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "lm_solvers", "footpad_dataset",
-              "footpad_kernels", "footpad_throughput", "shell_geometry")
+              "footpad_kernels", "footpad_throughput", "shell_geometry", "shell_table1")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import time
 
-import mujoco
 import numpy as np
 
 from models import shell
@@ -24,28 +23,10 @@ SWEEP = ((0.0, 0.0), (0.0, 0.3), (0.3, 0.0), (0.02, 0.02), (0.1, 0.1), (0.3, 0.3
          (0.7, 0.7), (1.0, 1.0))
 
 
-def ray_jacobian(params: shell.ShellParams, step: float = 1e-6) -> np.ndarray:
-  """(8, 6) d(ray heights)/d(pose about the reflector plane's centre) of the MuJoCo model."""
-  model = shell.build_spec(params).compile()
-  data = mujoco.MjData(model)
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
-
-  def rays(q):
-    data.qpos[:] = 0
-    data.qpos[adr] = q
-    mujoco.mj_kinematics(model, data)
-    return geo.ray_heights(model, data, params)
-  jac = np.stack([(rays(step * e) - rays(-step * e)) / (2 * step) for e in np.eye(6)], axis=1)
-  dz = params.gap - shell.elastic_centre(params)[2]
-  to_plane = np.eye(6)
-  to_plane[0, 4], to_plane[1, 3] = dz, -dz
-  return jac @ np.linalg.inv(to_plane)
-
-
 def run(ctx) -> dict:
   params = settings.apply(shell.ShellParams(), ctx.overrides)
   params.validate()
-  sim_map = ray_jacobian(params)
+  sim_map = geo.ray_jacobian(params)
   paper = shell.eqn3_matrix(params)
   diff = float(np.max(np.abs(sim_map - paper)) / np.max(np.abs(paper)))
   q_sim, q_paper = geo.map_quality(sim_map), geo.map_quality(paper)
@@ -58,7 +39,7 @@ def run(ctx) -> dict:
   ctx.print(f"\n{'c_x':>5s} {'c_y':>5s} {'rank':>5s} {'condition':>10s}  lost directions")
   sweep = []
   for cx, cy in SWEEP:
-    q = geo.map_quality(ray_jacobian(dataclasses.replace(params, slope_x=cx, slope_y=cy)))
+    q = geo.map_quality(geo.ray_jacobian(dataclasses.replace(params, slope_x=cx, slope_y=cy)))
     ctx.print(f"{cx:5.2f} {cy:5.2f} {q.rank:5d} {q.condition:10.1f}  {'; '.join(q.lost)}")
     sweep.append({"slope_x": cx, "slope_y": cy, "rank": q.rank, "condition": q.condition,
                   "lost": list(q.lost)})

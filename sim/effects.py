@@ -75,6 +75,20 @@ FOOTPAD_EFFECTS: dict[str, Effect] = {e.name: e for e in [
 ]}
 
 
+SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
+    Effect("out_of_window", Kind.SIGNAL,
+           "The photointerrupter's response outside the 2-4 mm window the 1/r law is fitted "
+           "on: below ~2 mm the 12-bit ADC clips at 4095, below the ~0.8 mm peak the response "
+           "falls towards zero (paper Fig. 4, DESIGN.md). Off: the ideal a/r + b at every "
+           "height (still clipped to the ADC's range)."),
+    Effect("sensor_noise", Kind.SIGNAL,
+           "White noise of the photointerrupter, amplifier and ADC: 1 count rms, the paper's "
+           "'standard deviation of only 1 bit' at a static height (Sec. II-B)."),
+    Effect("adc_quantisation", Kind.SIGNAL,
+           "12-bit conversion of the microcontroller's ADC: counts are floored to integers."),
+]}
+
+
 def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
   """Validates effect names; returns them sorted and de-duplicated."""
   unknown = [n for n in names if n not in known]

@@ -15,6 +15,8 @@ import dataclasses
 
 import numpy as np
 
+from sim.effects import SHELL_EFFECTS, check_effects, rng_for
+
 # u = r / r_c at the maximum of (1 - exp(-u^2)) / u: 2 u^2 exp(-u^2) = 1 - exp(-u^2)
 _PEAK_U = 1.1209
 
@@ -90,3 +92,17 @@ def range_from_counts(counts: np.ndarray, a: float, b: float) -> np.ndarray:
   s = np.asarray(counts, dtype=np.float64)
   with np.errstate(divide="ignore", invalid="ignore"):
     return np.where(s > b, a / (s - b), np.nan)
+
+
+def apply(height: np.ndarray, effects, seed: int,
+          sensor: Photointerrupter = Photointerrupter()) -> np.ndarray:
+  """Counts (N, 8) float64 from heights (N, 8), m, with the listed `SHELL_EFFECTS`."""
+  effects = check_effects(effects, SHELL_EFFECTS)
+  sensor.validate()
+  counts = sensor.counts(height, near_field="out_of_window" in effects)
+  if "sensor_noise" in effects:
+    counts = counts + rng_for(seed, "sensor_noise").normal(0.0, 1.0, counts.shape)
+    counts = np.clip(counts, 0.0, float(sensor.full_scale))
+  if "adc_quantisation" in effects:
+    counts = np.floor(counts)
+  return counts

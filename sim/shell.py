@@ -24,6 +24,7 @@ import scipy.interpolate
 
 from models import shell as model_lib
 from sim import photointerrupter, shell_geometry
+from sim.effects import SHELL_EFFECTS, check_effects
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
 FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
@@ -47,6 +48,7 @@ class ShellScene:
     downward_bias: in [0, 1]; 0 draws Fz evenly in +-force_range, 1 only downward (the
       paper's calibration lacked upward forces, Sec. III-B).
     sessions: continuous loading sessions, run in parallel, each from rest to rest.
+    effects: names from `sim.effects.SHELL_EFFECTS` (all sourced ones by default).
     seed: one integer for every random draw.
   """
   params: model_lib.ShellParams = model_lib.ShellParams()
@@ -57,10 +59,12 @@ class ShellScene:
   knot_interval: float = 0.5
   downward_bias: float = 0.0
   sessions: int = 2
+  effects: tuple[str, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
   seed: int = 0
 
   def validate(self) -> None:
     self.params.validate()
+    check_effects(self.effects, SHELL_EFFECTS)
     checks = [
         (1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames),
         (1 <= self.steps_per_frame <= 100, "steps_per_frame", "[1, 100]", self.steps_per_frame),
@@ -106,6 +110,7 @@ class ShellRun:
   Attributes:
     pose: (F, 6) mount joints: shell displacement (m) and hinge angles (rad).
     height: (F, 8) reflector heights above P1..P8, m.
+    counts: (F, 8) photointerrupter counts with the scene's effects.
     wrench: (F, 6) F/T truth: force (N) and torque about the F/T site (N m) on the shell side,
       tared at no load.
     applied: (F, 6) the hand's wrench about the F/T site, N and N m.
@@ -117,6 +122,7 @@ class ShellRun:
   """
   pose: np.ndarray
   height: np.ndarray
+  counts: np.ndarray
   wrench: np.ndarray
   applied: np.ndarray
   session: np.ndarray
@@ -205,6 +211,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
                   f"({scene.force_range} N) or torque_range ({scene.torque_range} N m)",
                   stacklevel=2)
   return ShellRun(pose=pose, height=height,
+                  counts=photointerrupter.apply(height, scene.effects, scene.seed),
                   wrench=np.concatenate([p[1] for p in parts]),
                   applied=np.concatenate([p[2] for p in parts]),
                   session=np.concatenate([np.full(len(p[0]), i, np.int32)

@@ -15,6 +15,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
+from models import shell as shell_model
 from models.shell import ShellParams
 
 
@@ -111,7 +112,6 @@ def map_quality(jacobian: np.ndarray, length_scale: float = 0.025,
 def ray_heights(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams) -> np.ndarray:
   """(8,) heights by `mj_ray` from each sensor site straight up, seeing reflector geoms only
   (geom group `models.shell.REFLECTOR_GROUP`); NaN where a ray misses."""
-  from models import shell as shell_model
   group = np.zeros(6, np.uint8)
   group[shell_model.REFLECTOR_GROUP] = 1
   out = np.full(8, np.nan)
@@ -123,3 +123,23 @@ def ray_heights(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams)
     if dist >= 0:
       out[i] = dist
   return out
+
+
+def ray_jacobian(params: ShellParams, step: float = 1e-6) -> np.ndarray:
+  """(8, 6) d(ray heights)/d(pose about the reflector plane's centre) of the MuJoCo model."""
+  model = shell_model.build_spec(params).compile()
+  data = mujoco.MjData(model)
+  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+
+  def rays(q):
+    data.qpos[:] = 0
+    data.qpos[adr] = q
+    mujoco.mj_kinematics(model, data)
+    return ray_heights(model, data, params)
+  jac = np.stack([(rays(step * e) - rays(-step * e)) / (2 * step) for e in np.eye(6)], axis=1)
+  # a turn theta about the elastic centre, dz below the plane, moves the plane's centre by
+  # (theta_y dz, -theta_x dz, 0)
+  dz = params.gap - shell_model.elastic_centre(params)[2]
+  to_plane = np.eye(6)
+  to_plane[0, 4], to_plane[1, 3] = dz, -dz
+  return jac @ np.linalg.inv(to_plane)

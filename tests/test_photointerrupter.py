@@ -46,3 +46,20 @@ def test_bad_sweep_is_named():
     fit_inverse_r(np.ones(5), np.ones(4))
   with pytest.raises(ValueError, match="> 0"):
     fit_inverse_r(np.array([0.002, 0.0, 0.003]), np.ones(3))
+
+
+def test_chain_effects_are_independent_and_seeded():
+  from sim import photointerrupter
+  rng = np.random.default_rng(0)
+  h = rng.uniform(0.0005, 0.005, (2000, 8))
+  ideal = photointerrupter.apply(h, (), seed=1)
+  np.testing.assert_array_equal(ideal, S.counts(h, near_field=False))
+  noisy = photointerrupter.apply(h, ("sensor_noise",), seed=1)
+  inside = (h > 0.0025) & (h < 0.0045)  # away from the clip at 4095
+  assert np.std((noisy - ideal)[inside]) == pytest.approx(1.0, rel=0.05)
+  both = photointerrupter.apply(h, ("sensor_noise", "out_of_window"), seed=1)
+  # switching out_of_window on changes no noise draw
+  np.testing.assert_allclose((both - S.counts(h))[inside], (noisy - ideal)[inside], atol=1e-9)
+  assert photointerrupter.apply(h, ("sensor_noise",), seed=1).tobytes() == noisy.tobytes()
+  with pytest.raises(ValueError, match="unknown effect"):
+    photointerrupter.apply(h, ("glare",), seed=1)

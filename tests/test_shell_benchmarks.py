@@ -1,0 +1,26 @@
+"""The shell benchmarks end to end through the command, on --quick settings."""
+
+import json
+
+import numpy as np
+
+from benchmarks import run as cli
+
+
+def test_shell_geometry_command(tmp_path):
+  assert cli.main(["shell_geometry", "--quick", "--out", str(tmp_path), "--no-progress"]) == 0
+  m = json.loads((tmp_path / "metrics.json").read_text())
+  assert m["rank"] == 6 and m["max_rel_difference"] < 1e-3
+  ranks = {(s["slope_x"], s["slope_y"]): s["rank"] for s in m["sweep"]}
+  assert ranks[(0.0, 0.0)] == 3 and ranks[(0.0, 0.3)] == 5 and ranks[(0.3, 0.0)] == 4
+
+
+def test_shell_table1_command(tmp_path):
+  args = ["shell_table1", "--quick", "--out", str(tmp_path), "--no-progress",
+          "--set", "force_range=0.5", "--set", "torque_range=0.02"]
+  assert cli.main(args) == 0
+  m = json.loads((tmp_path / "metrics.json").read_text())
+  assert m["frames"] == {"calibration": 9752, "test": 4231}
+  med = np.array([m["results"][a]["median_pct"] for a in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")])
+  assert np.all(np.isfinite(med)) and np.all(med < 50)
+  assert m["bottomed"]["calibration"] == 0.0
