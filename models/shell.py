@@ -161,6 +161,7 @@ def mount_stiffness(params: ShellParams) -> np.ndarray:
                    lateral * np.sum(xy**2) + n * twist])
 
 
+FT_SITE = (0.0, 0.0, -0.015)  # the F/T reference point in the chassis frame, m
 REFLECTOR_GROUP = 3  # geom group of the facets, the only geoms the sensors' rays see
 _PLATE_THICKNESS = 0.001  # reflector plate above the facets, m (assumed)
 _FACET_THICKNESS = 0.0015  # facet material above its underside at the sensor, m (assumed)
@@ -211,7 +212,7 @@ def build_spec(params: ShellParams) -> mujoco.MjSpec:
   ft.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.022, 0.0075, 0],
               pos=[0, 0, -0.0225], mass=0.06, rgba=[0.5, 0.5, 0.5, 1])
   chassis = ft.add_body(name="chassis", pos=[0, 0, 0])
-  chassis.add_site(name="ft", pos=[0, 0, -0.015])
+  chassis.add_site(name="ft", pos=list(FT_SITE))
   chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.025, 0.006],
                    pos=[0, 0, -0.008], mass=params.chassis_mass, contype=0, conaffinity=0,
                    rgba=[0.2, 0.2, 0.25, 1])

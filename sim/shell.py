@@ -47,6 +47,10 @@ class ShellScene:
       0.5 s).
     downward_bias: in [0, 1]; 0 draws Fz evenly in +-force_range, 1 only downward (the
       paper's calibration lacked upward forces, Sec. III-B).
+    in_window: the hand backs off where the sensors would leave their 2-4 mm window: each
+      random target is scaled down until its static pose keeps every height inside (the
+      paper chose its load range "to prevent the sensor from saturating", Sec. III-A).
+      False draws the targets from the full box.
     sessions: continuous loading sessions, run in parallel, each from rest to rest.
     effects: names from `sim.effects.SHELL_EFFECTS` (all sourced ones by default).
     seed: one integer for every random draw.
@@ -58,6 +62,7 @@ class ShellScene:
   torque_range: float = 0.06
   knot_interval: float = 0.5
   downward_bias: float = 0.0
+  in_window: bool = True
   sessions: int = 2
   effects: tuple[str, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
   seed: int = 0
@@ -98,9 +103,37 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   hi[2] = scene.force_range * (1 - scene.downward_bias)
   knots = rng.uniform(lo, hi, (n_knots, 6))
   knots[0] = knots[-1] = 0.0
+  if scene.in_window:
+    knots *= _window_scale(scene.params, knots)[:, None]
   t_knots = np.linspace(0.0, steps * dt, n_knots)
   spline = scipy.interpolate.CubicSpline(t_knots, knots, bc_type="clamped")
   return spline(np.arange(steps) * dt)
+
+
+def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray:
+  """(..., 6) mount joints under a steady wrench (..., 6) about the F/T site, small angles."""
+  w = np.asarray(wrench, float)
+  site = np.array(model_lib.FT_SITE)
+  # the same wrench about the elastic centre: M_c = M_site + (site - centre) x F
+  m = w[..., 3:] + np.cross(site - model_lib.elastic_centre(params), w[..., :3])
+  return np.concatenate([w[..., :3], m], axis=-1) / model_lib.mount_stiffness(params)
+
+
+def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray:
+  """(K,) largest factor in [0, 1] keeping every static height inside the window, by
+  bisection (the heights are monotonic along a ray of small loads)."""
+  lo_h, hi_h = WINDOW
+
+  def inside(s):
+    h = heights_from_pose(params, static_pose(params, wrench * s[:, None]))
+    return np.all((h >= lo_h) & (h <= hi_h), axis=1)
+  lo, hi = np.zeros(len(wrench)), np.ones(len(wrench))
+  full = inside(hi)
+  for _ in range(30):
+    mid = (lo + hi) / 2
+    ok = inside(mid)
+    lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+  return np.where(full, 1.0, lo)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -70,7 +70,7 @@ def test_loads_stay_in_range_and_bias_pushes_down():
 
 def test_bottoming_out_is_reported():
   with pytest.warns(UserWarning, match="into the PCB"):
-    r = shell.simulate(dataclasses.replace(SMALL, frames=2000, force_range=4.0))
+    r = shell.simulate(dataclasses.replace(SMALL, frames=2000, force_range=4.0, in_window=False))
   assert 0 < r.bottomed <= r.out_of_window <= 1
 
 
@@ -81,3 +81,29 @@ def test_bottoming_out_is_reported():
 def test_bad_scene_is_named(change, message):
   with pytest.raises(ValueError, match=message):
     shell.simulate(dataclasses.replace(SMALL, **change))
+
+
+def test_in_window_targets_keep_static_heights_inside():
+  rng = np.random.default_rng(1)
+  scene = dataclasses.replace(SMALL, force_range=1.0, torque_range=0.06)
+  box = rng.uniform(-1, 1, (500, 6)) * np.array([1, 1, 1, 0.06, 0.06, 0.06])
+  scaled = box * shell._window_scale(scene.params, box)[:, None]
+  h = shell.heights_from_pose(scene.params, shell.static_pose(scene.params, scaled))
+  lo, hi = shell.WINDOW
+  assert np.all((h >= lo - 1e-9) & (h <= hi + 1e-9))
+  # and the scaling is tight: 1 % more leaves the window for the scaled-down targets
+  cut = np.abs(np.linalg.norm(scaled, axis=1) - np.linalg.norm(box, axis=1)) > 1e-12
+  h2 = shell.heights_from_pose(scene.params, shell.static_pose(scene.params, 1.01 * scaled[cut]))
+  assert np.all(np.any((h2 < lo) | (h2 > hi), axis=1))
+
+
+def test_static_pose_matches_the_simulated_rest_under_a_steady_wrench():
+  model = model_lib.build_spec(SMALL.params).compile()
+  data = mujoco.MjData(model)
+  w = np.array([[0.3, -0.2, -0.4, 0.004, -0.006, 0.005]])
+  data.xfrc_applied[:] = shell._xfrc(model, data, w)[0].reshape(model.nbody, 6)
+  for _ in range(6000):
+    mujoco.mj_step(model, data)
+  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  np.testing.assert_allclose(data.qpos[adr], shell.static_pose(SMALL.params, w)[0],
+                             rtol=0.03, atol=2e-6)
