@@ -17,12 +17,10 @@ misses at the facet edges).
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
-from calibrate import estimators, metrics
-from sim import settings, shell
+from benchmarks import shell_data
+from calibrate import metrics
 
 DESCRIPTION = "shell paper Table I: cubic calibration, median % error and worst % of range"
 AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
@@ -32,25 +30,11 @@ PAPER_TABLE1 = {  # median % error, worst case % of range (test set, n = 42316)
 PAPER_RANGE = {"Fx": 2.3, "Fy": 2.1, "Fz": 1.9, "Mx": 96, "My": 127, "Mz": 138}  # Table II
 
 
-def scenes(ctx) -> dict[str, shell.ShellScene]:
-  base = settings.apply(shell.ShellScene(), ctx.overrides)
-  seeds = np.random.SeedSequence(ctx.seed).generate_state(2)
-  out = {}
-  for (name, frames), seed in zip(shell.PAPER_FRAMES.items(), seeds):
-    n = frames // 10 if ctx.quick else frames
-    out[name] = dataclasses.replace(base, frames=n, seed=int(seed))
-    out[name].validate()
-  return out
-
-
 def run(ctx) -> dict:
-  runs = {}
-  for name, scene in scenes(ctx).items():
-    runs[name] = shell.simulate(scene, ctx.progress(f"{name} frames"))
+  runs, est = shell_data.calibrated(ctx)
   steps = sum(r.steps for r in runs.values())
   seconds = sum(r.seconds for r in runs.values())
   cal, test = runs["calibration"], runs["test"]
-  est = estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench)
   pred = est.predict(test.counts)
   median = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
                            metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
@@ -79,4 +63,4 @@ def run(ctx) -> dict:
           "physics": {"steps": steps, "seconds": seconds},
           "out_of_window": {k: r.out_of_window for k, r in runs.items()},
           "bottomed": {k: r.bottomed for k, r in runs.items()},
-          "effects": list(scenes(ctx)["calibration"].effects)}
+          "effects": list(shell_data.scenes(ctx)["calibration"].effects)}

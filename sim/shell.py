@@ -51,6 +51,7 @@ class ShellScene:
       random target is scaled down until its static pose keeps every height inside (the
       paper chose its load range "to prevent the sensor from saturating", Sec. III-A).
       False draws the targets from the full box.
+    loading: "hand" (the random sweeps) or "rest" (no load: noise and offsets alone).
     sessions: continuous loading sessions, run in parallel, each from rest to rest.
     effects: names from `sim.effects.SHELL_EFFECTS` (all sourced ones by default).
     seed: one integer for every random draw.
@@ -63,6 +64,7 @@ class ShellScene:
   knot_interval: float = 0.5
   downward_bias: float = 0.0
   in_window: bool = True
+  loading: str = "hand"
   sessions: int = 2
   effects: tuple[str, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
   seed: int = 0
@@ -78,6 +80,7 @@ class ShellScene:
         (0.05 <= self.knot_interval <= 10, "knot_interval", "[0.05, 10] s", self.knot_interval),
         (0 <= self.downward_bias <= 1, "downward_bias", "[0, 1]", self.downward_bias),
         (1 <= self.sessions <= 64, "sessions", "[1, 64]", self.sessions),
+        (self.loading in ("hand", "rest"), "loading", "'hand' or 'rest'", self.loading),
         (int(self.seed) == self.seed and self.seed >= 0, "seed", "integers >= 0", self.seed),
     ]
     for ok, name, allowed, value in checks:
@@ -94,6 +97,8 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   Random targets every knot_interval, uniform in each axis's range, joined by a cubic
   spline with zero slope at rest at both ends.
   """
+  if scene.loading == "rest":
+    return np.zeros((steps, 6))
   dt = scene.params.timestep
   n_knots = max(2, int(np.ceil(steps * dt / scene.knot_interval)) + 1)
   lim = np.array([scene.force_range] * 3 + [scene.torque_range] * 3)

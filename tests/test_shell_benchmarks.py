@@ -24,3 +24,13 @@ def test_shell_table1_command(tmp_path):
   med = np.array([m["results"][a]["median_pct"] for a in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")])
   assert np.all(np.isfinite(med)) and np.all(med < 50)
   assert m["bottomed"]["calibration"] == 0.0
+
+
+def test_shell_table2_command(tmp_path):
+  args = ["shell_table2", "--quick", "--out", str(tmp_path), "--no-progress"]
+  assert cli.main(args) == 0
+  m = json.loads((tmp_path / "metrics.json").read_text())
+  for a in ("Fx", "Fy", "Fz", "Mx", "My", "Mz"):
+    r = m["results"][a]
+    # the resolution at rest is a small fraction of the loaded range
+    assert 0 < r["resolution"] < 0.02 * r["range"], (a, r)

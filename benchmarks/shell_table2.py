@@ -1,0 +1,45 @@
+"""shell_table2: the shell paper's Table II, range and resolution of each axis.
+
+The cubic calibration of `shell_table1` is applied to a run at rest (10 s, no load): the
+resolution is the standard deviation of each calibrated axis there, as the paper reads it
+("the standard deviation of F_x is 5.4 mN"); the range is that of the test loads. Printed
+beside the paper's SkinProc row and its ATI Nano43 reference row.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from benchmarks import shell_data
+from sim import shell
+
+DESCRIPTION = "shell paper Table II: range and resolution (std at rest) per axis"
+AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+# range, resolution; N and N m
+PAPER_TABLE2 = {"Fx": (2.3, 0.0054), "Fy": (2.1, 0.0167), "Fz": (1.9, 0.0051),
+                "Mx": (0.096, 0.00072), "My": (0.127, 0.00025), "Mz": (0.138, 0.00044)}
+NANO43 = {"force": (18.0, 0.0039), "torque": (0.25, 0.00005)}
+REST_FRAMES = 1000
+
+
+def run(ctx) -> dict:
+  runs, est = shell_data.calibrated(ctx)
+  scene = shell_data.scenes(ctx)["test"]
+  rest_seed = int(np.random.SeedSequence(ctx.seed).generate_state(3)[2])
+  rest = shell.simulate(dataclasses.replace(scene, loading="rest", frames=REST_FRAMES,
+                                            seed=rest_seed))
+  resolution = np.std(est.predict(rest.counts), axis=0)
+  span = np.ptp(runs["test"].wrench, axis=0)
+  unit = np.array([1, 1, 1, 1e3, 1e3, 1e3])  # N, mN m as the paper prints
+  ctx.print(f"{'axis':5s} {'range':>16s} {'resolution':>18s}   (N or mN m; [paper], Nano43)")
+  for i, a in enumerate(AXES):
+    nano = NANO43["force" if i < 3 else "torque"]
+    ctx.print(f"{a:5s} {span[i] * unit[i]:7.3g} [{PAPER_TABLE2[a][0] * unit[i]:5.3g}] "
+              f"{resolution[i] * unit[i]:9.3g} [{PAPER_TABLE2[a][1] * unit[i]:6.3g}]   "
+              f"Nano43 {nano[0] * unit[i]:g}/{nano[1] * unit[i]:g}")
+  return {"results": {a: {"range": float(span[i]), "resolution": float(resolution[i])}
+                      for i, a in enumerate(AXES)},
+          "paper": {a: {"range": v[0], "resolution": v[1]} for a, v in PAPER_TABLE2.items()},
+          "nano43": NANO43, "rest_frames": REST_FRAMES, "effects": list(scene.effects)}
