@@ -193,8 +193,15 @@ def facet_mesh(params: ShellParams, i: int):
   return trimesh.convex.convex_hull(np.array(pts))
 
 
-def build_spec(params: ShellParams) -> mujoco.MjSpec:
+def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) -> mujoco.MjSpec:
   """The rig: F/T body welded to the world, chassis welded to it, shell on its mount.
+
+  Args:
+    params: the shell's parameters.
+    base: "ft" welds the chassis to the world through the F/T body (calibration, gravity
+      tests); "free" gives the chassis a free joint and no F/T body (the robot on its own).
+    contacts: the chassis and shell collide with other bodies (the floor, a dropped mass),
+      never with each other; off, nothing collides.
 
   Sensors: `ft_force`, `ft_torque` (on site `ft`, the chassis's interaction with the F/T
   body, reported child-to-parent as MuJoCo does); sites `P1`..`P8` on the PCB, z up.
@@ -203,19 +210,27 @@ def build_spec(params: ShellParams) -> mujoco.MjSpec:
   shell at the design gap under gravity.
   """
   params.validate()
+  if base not in ("ft", "free"):
+    raise ValueError(f"base={base!r} is unknown: allowed 'ft', 'free'")
+  collide = dict(contype=1, conaffinity=1) if contacts else dict(contype=0, conaffinity=0)
   spec = mujoco.MjSpec()
   spec.modelname = "shell"
   spec.option.timestep = params.timestep
   spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
   world = spec.worldbody
-  ft = world.add_body(name="ft_body")
-  ft.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.022, 0.0075, 0],
-              pos=[0, 0, -0.0225], mass=0.06, rgba=[0.5, 0.5, 0.5, 1])
-  chassis = ft.add_body(name="chassis", pos=[0, 0, 0])
+  if base == "ft":
+    ft = world.add_body(name="ft_body")
+    ft.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.022, 0.0075, 0],
+                pos=[0, 0, -0.0225], mass=0.06, contype=0, conaffinity=0,
+                rgba=[0.5, 0.5, 0.5, 1])
+    chassis = ft.add_body(name="chassis", pos=[0, 0, 0])
+  else:
+    chassis = world.add_body(name="chassis", pos=[0, 0, 0])
+    chassis.add_freejoint(name="chassis_free")
   chassis.add_site(name="ft", pos=list(FT_SITE))
   chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.025, 0.006],
-                   pos=[0, 0, -0.008], mass=params.chassis_mass, contype=0, conaffinity=0,
-                   rgba=[0.2, 0.2, 0.25, 1])
+                   pos=[0, 0, -0.008], mass=params.chassis_mass, rgba=[0.2, 0.2, 0.25, 1],
+                   **collide)
   for i in range(8):
     chassis.add_site(name=f"P{i + 1}", pos=[params.sensor_x[i], params.sensor_y[i], 0.0],
                      size=[0.0008, 0, 0], rgba=[0.9, 0.2, 0.2, 1])
@@ -234,8 +249,8 @@ def build_spec(params: ShellParams) -> mujoco.MjSpec:
                  mass=params.reflector_mass, contype=0, conaffinity=0, group=2,
                  rgba=[0.8, 0.8, 0.8, 1])
   shell.add_geom(name="shell", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.03, 0.0005],
-                 pos=[0, 0, top + 0.01 - centre[2]], mass=params.shell_mass, contype=0,
-                 conaffinity=0, group=1, rgba=[0.3, 0.5, 0.9, 0.4])
+                 pos=[0, 0, top + 0.01 - centre[2]], mass=params.shell_mass, group=1,
+                 rgba=[0.3, 0.5, 0.9, 0.4], **collide)
   if params.payload > 0:
     shell.add_geom(name="payload", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.01, 0.005, 0],
                    pos=[0, 0, top + 0.016 - centre[2]], mass=params.payload, contype=0,
@@ -248,6 +263,8 @@ def build_spec(params: ShellParams) -> mujoco.MjSpec:
     shell.add_geom(name=f"facet{i + 1}", type=mujoco.mjtGeom.mjGEOM_MESH,
                    meshname=f"facet{i + 1}", contype=0, conaffinity=0,
                    group=REFLECTOR_GROUP, mass=1e-5, rgba=[0.95, 0.95, 0.9, 1])
+  if contacts:  # the shell rides on its springs, never on the chassis (DESIGN.md pitfall)
+    spec.add_exclude(bodyname1="chassis", bodyname2="shell")
   spec.add_sensor(name="ft_force", type=mujoco.mjtSensor.mjSENS_FORCE,
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
   spec.add_sensor(name="ft_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
@@ -261,7 +278,7 @@ def build_spec(params: ShellParams) -> mujoco.MjSpec:
   full = np.zeros((model.nv, model.nv))
   mujoco.mj_fullM(model, data, full)
   weight = -model.opt.gravity[2] * (model.body("shell").subtreemass[0] - params.payload)
-  for j, joint in enumerate(spec.joints):
+  for j, joint in enumerate(j for j in spec.joints if j.name.startswith("mount_")):
     dof = model.joint(joint.name).dofadr[0]
     joint.damping = [2 * params.damping_ratio * math.sqrt(stiff[j] * full[dof, dof]), 0, 0]
     if joint.name == "mount_z":

@@ -34,3 +34,12 @@ def test_shell_table2_command(tmp_path):
     r = m["results"][a]
     # the resolution at rest is a small fraction of the loaded range
     assert 0 < r["resolution"] < 0.02 * r["range"], (a, r)
+
+
+def test_step_response_rings_at_the_spring_mass_frequency(tmp_path):
+  args = ["step_response", "--quick", "--out", str(tmp_path), "--no-progress"]
+  assert cli.main(args) == 0
+  m = json.loads((tmp_path / "metrics.json").read_text())
+  assert abs(m["ringing_hz"] / m["spring_mass_hz"] - 1) < 0.05
+  # the calibrated step reads the mass's weight with the right sign and order
+  assert -0.7 < m["fz_step"] < -0.3
