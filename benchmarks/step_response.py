@@ -46,7 +46,7 @@ def drop(params: model_lib.ShellParams, seed: int) -> dict:
   free = model.joint("chassis_free").qposadr[0]
   data.qpos[free:free + 3] = [0, 0, chassis_z]
   data.qpos[free + 3:free + 7] = [0, 1, 0, 0]  # 180 degrees about x
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  adr = model_lib.mount_qpos_index(model)
   dt = model.opt.timestep
   steps = int(round(END / dt))
   spf = int(round(1 / (shell.FRAME_RATE * dt)))

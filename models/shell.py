@@ -284,3 +284,11 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
     if joint.name == "mount_z":
       joint.springref = weight / stiff[2]  # unloaded rest above the design gap
   return spec
+
+
+MOUNT_JOINTS = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def mount_qpos_index(model: mujoco.MjModel) -> np.ndarray:
+  """(6,) qpos addresses of the mount joints: x, y, z slides, then hinges about x, y, z."""
+  return np.array([model.joint(f"mount_{n}").qposadr[0] for n in MOUNT_JOINTS])

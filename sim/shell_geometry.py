@@ -129,7 +129,7 @@ def ray_jacobian(params: ShellParams, step: float = 1e-6) -> np.ndarray:
   """(8, 6) d(ray heights)/d(pose about the reflector plane's centre) of the MuJoCo model."""
   model = shell_model.build_spec(params).compile()
   data = mujoco.MjData(model)
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  adr = shell_model.mount_qpos_index(model)
 
   def rays(q):
     data.qpos[:] = 0

@@ -19,14 +19,9 @@ def rig():
   return model, mujoco.MjData(model)
 
 
-def _mount_qpos(model):
-  return np.array([model.joint(f"mount_{n}").qposadr[0]
-                   for n in ("x", "y", "z", "rx", "ry", "rz")])
-
-
 def _rays_at(model, data, q):
   data.qpos[:] = 0
-  data.qpos[_mount_qpos(model)] = q
+  data.qpos[shell.mount_qpos_index(model)] = q
   mujoco.mj_kinematics(model, data)
   return geo.ray_heights(model, data, P)
 

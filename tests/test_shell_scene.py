@@ -23,7 +23,7 @@ def test_tared_ft_equals_the_applied_wrench_under_slow_loading(run):
   is M + (com - site) x F. Under slow loading the tared F/T reading equals it within 1 %."""
   model = model_lib.build_spec(SMALL.params).compile()
   data = mujoco.MjData(model)
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  adr = model_lib.mount_qpos_index(model)
   mujoco.mj_kinematics(model, data)
   com0 = data.body("shell").xipos.copy()
   site = data.site("ft").xpos.copy()
@@ -44,7 +44,7 @@ def test_tared_ft_equals_the_applied_wrench_under_slow_loading(run):
 def test_heights_from_joints_equal_rays(run):
   model = model_lib.build_spec(SMALL.params).compile()
   data = mujoco.MjData(model)
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  adr = model_lib.mount_qpos_index(model)
   for i in range(0, len(run.pose), 300):
     data.qpos[adr] = run.pose[i]
     mujoco.mj_kinematics(model, data)
@@ -104,6 +104,6 @@ def test_static_pose_matches_the_simulated_rest_under_a_steady_wrench():
   data.xfrc_applied[:] = shell._xfrc(model, data, w)[0].reshape(model.nbody, 6)
   for _ in range(6000):
     mujoco.mj_step(model, data)
-  adr = [model.joint(f"mount_{n}").qposadr[0] for n in ("x", "y", "z", "rx", "ry", "rz")]
+  adr = model_lib.mount_qpos_index(model)
   np.testing.assert_allclose(data.qpos[adr], shell.static_pose(SMALL.params, w)[0],
                              rtol=0.03, atol=2e-6)
