@@ -165,6 +165,7 @@ FT_SITE = (0.0, 0.0, -0.015)  # the F/T reference point in the chassis frame, m
 REFLECTOR_GROUP = 3  # geom group of the facets, the only geoms the sensors' rays see
 _PLATE_THICKNESS = 0.001  # reflector plate above the facets, m (assumed)
 _FACET_THICKNESS = 0.0015  # facet material above its underside at the sensor, m (assumed)
+_SHEET = 2e-5  # thickness of the facet meshes the rays see, m
 
 
 def spring_top(params: ShellParams) -> float:
@@ -178,18 +179,20 @@ def elastic_centre(params: ShellParams) -> np.ndarray:
 
 
 def facet_mesh(params: ShellParams, i: int):
-  """The reflector facet over sensor i as a trimesh wedge, in the chassis frame at rest: a
-  square of side reflector_size whose underside is the sloped plane the sensor reads."""
+  """The reflector facet over sensor i as a trimesh sheet, in the chassis frame at rest: a
+  square of side reflector_size whose underside is the sloped plane the sensor reads (its
+  mass and bulk belong to the reflector plate's geom)."""
   import trimesh
   half = params.reflector_size / 2
   x0, y0 = params.sensor_x[i], params.sensor_y[i]
   sx, sy = params.slopes()[i]
-  top = params.gap + _FACET_THICKNESS + half * (abs(sx) + abs(sy))
   pts = []
   for dx in (-half, half):
     for dy in (-half, half):
-      pts.append((x0 + dx, y0 + dy, params.gap + sx * dx + sy * dy))
-      pts.append((x0 + dx, y0 + dy, top))
+      under = params.gap + sx * dx + sy * dy
+      pts.append((x0 + dx, y0 + dy, under))
+      # a thin sloped sheet: a sensor looking past the facet's edge sees no side wall
+      pts.append((x0 + dx, y0 + dy, under + _SHEET))
   return trimesh.convex.convex_hull(np.array(pts))
 
 

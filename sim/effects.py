@@ -81,6 +81,11 @@ SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "on: below ~2 mm the 12-bit ADC clips at 4095, below the ~0.8 mm peak the response "
            "falls towards zero (paper Fig. 4, DESIGN.md). Off: the ideal a/r + b at every "
            "height (still clipped to the ADC's range)."),
+    Effect("ray_miss", Kind.SIGNAL,
+           "A sensor whose line of sight passes beside its reflector facet (a square of "
+           "ShellParams.reflector_size, 5 mm assumed, in the shell frame) sees no reflector "
+           "and reads its dark offset b, as MuJoCo's rays do (`sim.shell_geometry.heights` "
+           "with finite_facets). No free parameter beyond the facet's size."),
     Effect("sensor_noise", Kind.SIGNAL,
            "White noise of the photointerrupter, amplifier and ADC: 1 count rms, the paper's "
            "'standard deviation of only 1 bit' at a static height (Sec. II-B)."),

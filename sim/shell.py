@@ -53,7 +53,8 @@ class ShellScene:
       False draws the targets from the full box.
     loading: "hand" (the random sweeps) or "rest" (no load: noise and offsets alone).
     sessions: continuous loading sessions, run in parallel, each from rest to rest.
-    effects: names from `sim.effects.SHELL_EFFECTS` (all sourced ones by default).
+    effects: names from `sim.effects.SHELL_EFFECTS`; by default the ones whose magnitude
+      has a source (`ray_miss` waits on the real facet size: opt in with effects=...).
     seed: one integer for every random draw.
   """
   params: model_lib.ShellParams = model_lib.ShellParams()
@@ -147,14 +148,16 @@ class ShellRun:
 
   Attributes:
     pose: (F, 6) mount joints: shell displacement (m) and hinge angles (rad).
-    height: (F, 8) reflector heights above P1..P8, m.
+    height: (F, 8) reflector heights above P1..P8, m; NaN where a sensor looks past its
+      facet (`ray_miss`).
     counts: (F, 8) photointerrupter counts with the scene's effects.
     wrench: (F, 6) F/T truth: force (N) and torque about the F/T site (N m) on the shell side,
       tared at no load.
     applied: (F, 6) the hand's wrench about the F/T site, N and N m.
     session: (F,) index of the continuous session.
     seconds: wall time of the physics, s.  steps: physics steps.
-    out_of_window: share of frames with any height outside the sensor's 2-4 mm window.
+    out_of_window: share of frames with any height outside the sensor's 2-4 mm window (or
+      missed).
     bottomed: share of frames with any reflector at or below the PCB (the shell would hit the
       chassis; that contact is not simulated).
   """
@@ -170,12 +173,15 @@ class ShellRun:
   bottomed: float
 
 
-def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray) -> np.ndarray:
+def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray,
+                      finite_facets: bool = False) -> np.ndarray:
   """(..., 8) heights from mount joint positions (..., 6): the closed form of the joint chain
-  (slides, then hinges about x, turned y, turned z through the elastic centre)."""
+  (slides, then hinges about x, turned y, turned z through the elastic centre); with
+  finite_facets, NaN where a sensor looks past its facet (`shell_geometry.heights`)."""
   pose = np.asarray(pose, float)
   return shell_geometry.heights(params, shell_geometry.rotation(pose[..., 3:]), pose[..., :3],
-                                centre=model_lib.elastic_centre(params))
+                                centre=model_lib.elastic_centre(params),
+                                finite_facets=finite_facets)
 
 
 def _xfrc(model: mujoco.MjModel, data: mujoco.MjData, wrench: np.ndarray) -> np.ndarray:
@@ -239,10 +245,10 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
     parts = list(pool.map(run_session, range(scene.sessions)))
   seconds = time.perf_counter() - t0
   pose = np.concatenate([p[0] for p in parts])
-  height = heights_from_pose(scene.params, pose)
+  height = heights_from_pose(scene.params, pose, finite_facets="ray_miss" in scene.effects)
   lo, hi = WINDOW
-  out = float(np.mean(np.any((height < lo) | (height > hi), axis=1)))
-  bottomed = float(np.mean(np.any(height <= 0.0, axis=1)))
+  out = float(np.mean(np.any(~((height >= lo) & (height <= hi)), axis=1)))
+  bottomed = float(np.mean(np.any(heights_from_pose(scene.params, pose) <= 0.0, axis=1)))
   if bottomed > 0:
     warnings.warn(f"{bottomed:.1%} of frames drive a reflector into the PCB (the shell would "
                   f"hit the chassis, which is not simulated): lower force_range "

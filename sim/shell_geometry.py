@@ -34,7 +34,7 @@ def rotation(angles: np.ndarray) -> np.ndarray:
 
 
 def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
-            centre: np.ndarray | None = None) -> np.ndarray:
+            centre: np.ndarray | None = None, finite_facets: bool = False) -> np.ndarray:
   """(..., 8) vertical distance from each sensor to its facet, m.
 
   Args:
@@ -43,6 +43,9 @@ def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
     trans: (..., 3) shell displacement from rest, m.
     centre: point (chassis frame) the rotation is about; default the centre of the
       reflector plane, (0, 0, gap).
+    finite_facets: NaN where the sensor's line of sight passes beside its facet (a square
+      of side reflector_size in the shell frame), as a ray would; else the facet planes are
+      unbounded.
   """
   c = np.array([0.0, 0.0, params.gap]) if centre is None else np.asarray(centre, float)
   sens = params.sensor_positions()
@@ -54,7 +57,14 @@ def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
   p = np.einsum("...ij,kj->...ki", rot, p0 - c) + c + trans[..., None, :]
   n = np.einsum("...ij,kj->...ki", rot, n0)
   # sensor + h e_z on the plane: n . (sensor + h e_z - p) = 0
-  return np.sum(n * (p - sens), axis=-1) / n[..., 2]
+  h = np.sum(n * (p - sens), axis=-1) / n[..., 2]
+  if not finite_facets:
+    return h
+  hit = sens + h[..., None] * np.array([0.0, 0.0, 1.0])
+  # back into the shell frame: R^T (hit - c - t) + c
+  local = np.einsum("...ji,...kj->...ki", rot, hit - c - trans[..., None, :]) + c
+  off = np.abs(local[..., :2] - sens[:, :2])
+  return np.where(np.all(off <= params.reflector_size / 2, axis=-1), h, np.nan)
 
 
 def pose_heights(params: ShellParams, pose: np.ndarray) -> np.ndarray:

@@ -115,3 +115,24 @@ def test_mount_stiffness_axial_terms():
 def test_bad_parameters_are_named(change, message):
   with pytest.raises(ValueError, match=message):
     shell.build_spec(dataclasses.replace(P, **change))
+
+
+def test_finite_facets_miss_where_rays_miss(rig):
+  model, data = rig
+  rng = np.random.default_rng(5)
+  centre = shell.elastic_centre(P)
+  _rays_at(model, data, np.zeros(6))
+  rest = data.body("shell").xpos.copy()
+  misses = 0
+  # (the shell kept above the PCB: a ray from the aperture cannot see a facet below it)
+  for _ in range(200):
+    q = np.concatenate([rng.uniform(-3e-3, 3e-3, 2), rng.uniform(-1.5e-3, 1.5e-3, 1),
+                        rng.uniform(-0.05, 0.05, 3)])
+    rays = _rays_at(model, data, q)
+    body = data.body("shell")
+    closed = geo.heights(P, body.xmat.reshape(3, 3), body.xpos - rest, centre=centre,
+                         finite_facets=True)
+    np.testing.assert_array_equal(np.isnan(rays), np.isnan(closed))
+    np.testing.assert_allclose(rays[~np.isnan(rays)], closed[~np.isnan(closed)], atol=1e-9)
+    misses += np.isnan(rays).sum()
+  assert misses > 20  # the poses do reach past the facets
