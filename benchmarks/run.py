@@ -17,7 +17,7 @@ from typing import Callable, Optional
 
 BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "lm_solvers", "footpad_dataset",
               "footpad_kernels", "footpad_throughput", "shell_geometry", "shell_table1",
-              "shell_table2", "step_response", "gravity_vectors")
+              "shell_table2", "step_response", "gravity_vectors", "collisions")
 
 
 @dataclasses.dataclass(frozen=True)

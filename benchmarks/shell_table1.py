@@ -6,13 +6,14 @@ pseudoinverse (features s, s^2, s^3 of each sensor, 24 + bias -> 6 axes; paper E
 fitted on the first and scored on the second: median percent error over |F| > 0.2 N and
 |M| > 10 mN m, and worst-case error as % of each axis's test range, beside the paper's values.
 Also printed: the physics time of the ~1.4 M steps, the share of frames outside the
-sensors' 2-4 mm window and the test loads' range per axis beside the paper's Table II. `--set` takes `ShellScene` fields (force_range=0.8,
-params.slope_x=0.1, downward_bias=0.8, effects=sensor_noise).
+sensors' 2-4 mm window and the test loads' range per axis beside the paper's Table II.
+`--set` takes `ShellScene` fields (force_range=0.8, params.slope_x=0.1, downward_bias=0.8,
+effects=sensor_noise,ray_miss).
 
 With only the sourced effects (noise, 12-bit conversion, the sensor curve outside its
 window) the simulation is far better than the paper: its remaining errors come from
-effects not simulated yet (stray infrared light, per-unit spread, spring hysteresis, ray
-misses at the facet edges).
+effects not simulated by default (ray misses at the facet edges, `ray_miss`, opt-in) or
+not yet (stray infrared light, per-unit spread, spring hysteresis).
 """
 
 from __future__ import annotations

@@ -202,7 +202,9 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
   Args:
     params: the shell's parameters.
     base: "ft" welds the chassis to the world through the F/T body (calibration, gravity
-      tests); "free" gives the chassis a free joint and no F/T body (the robot on its own).
+      tests); "free" gives the chassis a free joint and no F/T body (the robot on its own);
+      "planar" gives it slides `chassis_x`, `chassis_y`, `chassis_z` and a yaw hinge
+      `chassis_yaw` for scripted gaits (walking into walls).
     contacts: the chassis and shell collide with other bodies (the floor, a dropped mass),
       never with each other; off, nothing collides.
 
@@ -213,8 +215,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
   shell at the design gap under gravity.
   """
   params.validate()
-  if base not in ("ft", "free"):
-    raise ValueError(f"base={base!r} is unknown: allowed 'ft', 'free'")
+  if base not in ("ft", "free", "planar"):
+    raise ValueError(f"base={base!r} is unknown: allowed 'ft', 'free', 'planar'")
   collide = dict(contype=1, conaffinity=1) if contacts else dict(contype=0, conaffinity=0)
   spec = mujoco.MjSpec()
   spec.modelname = "shell"
@@ -229,7 +231,13 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
     chassis = ft.add_body(name="chassis", pos=[0, 0, 0])
   else:
     chassis = world.add_body(name="chassis", pos=[0, 0, 0])
-    chassis.add_freejoint(name="chassis_free")
+    if base == "free":
+      chassis.add_freejoint(name="chassis_free")
+    else:
+      for i, a in enumerate(AXES):
+        chassis.add_joint(name=f"chassis_{a}", type=mujoco.mjtJoint.mjJNT_SLIDE,
+                          axis=np.eye(3)[i])
+      chassis.add_joint(name="chassis_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
   chassis.add_site(name="ft", pos=list(FT_SITE))
   chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.025, 0.006],
                    pos=[0, 0, -0.008], mass=params.chassis_mass, rgba=[0.2, 0.2, 0.25, 1],
@@ -251,7 +259,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
                  size=[0.03, 0.015, _PLATE_THICKNESS / 2], pos=[0, 0, plate_z],
                  mass=params.reflector_mass, contype=0, conaffinity=0, group=2,
                  rgba=[0.8, 0.8, 0.8, 1])
-  shell.add_geom(name="shell", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.03, 0.0005],
+  # the shell overhangs the chassis (box +-50 x +-25 mm) so that obstacles meet it first
+  shell.add_geom(name="shell", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.056, 0.031, 0.0005],
                  pos=[0, 0, top + 0.01 - centre[2]], mass=params.shell_mass, group=1,
                  rgba=[0.3, 0.5, 0.9, 0.4], **collide)
   if params.payload > 0:

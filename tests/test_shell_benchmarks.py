@@ -60,3 +60,27 @@ def test_gravity_vectors_reads_the_mass_and_the_tared_shell(tmp_path):
                      / np.linalg.norm(g, axis=1)) * 1e3
   assert abs(m["mean_mass_g"] / expected - 1) < 0.05, (m["mean_mass_g"], expected)
   assert m["mean_angle_deg"] < 20
+
+
+def test_collisions_read_the_walls_push(tmp_path):
+  args = ["collisions", "--quick", "--out", str(tmp_path), "--no-progress"]
+  assert cli.main(args) == 0
+  r = json.loads((tmp_path / "metrics.json").read_text())["results"]
+  head = r["head_on"]
+  # pushing against the wall at rest, the wall returns the thrust (force balance)...
+  assert abs(head["contact_steady"][0] + 0.49) < 0.01
+  # ...and the calibrated shell reads it
+  assert abs(head["steady"][0] - head["contact_steady"][0]) < 0.03
+  assert head["min"][0] < head["steady"][0]  # the impact overshoots the push
+  corner = r["corner"]
+  assert corner["min"][0] < -0.1 and corner["min"][1] < -0.1  # front-left corner: -Fx, -Fy
+  assert max(r["none"]["walking_amplitude"]) < 0.05
+
+
+def test_walk_bad_input_is_named():
+  import pytest
+  from sim import shell_walk
+  with pytest.raises(ValueError, match="wall"):
+    shell_walk.simulate(shell_walk.Walk(wall="door"))
+  with pytest.raises(ValueError, match="thrust"):
+    shell_walk.simulate(shell_walk.Walk(thrust=-1.0))
