@@ -201,6 +201,11 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
              threads: Optional[int] = None) -> ShellRun:
   """Runs the scene's sessions in parallel; `progress(done, total)` per finished chunk."""
   scene.validate()
+  quality = shell_geometry.map_quality(shell_geometry.height_jacobian(scene.params))
+  if quality.rank < 6:
+    warnings.warn(f"slopes c_x={scene.params.slope_x}, c_y={scene.params.slope_y} give a height "
+                  f"map of rank {quality.rank}: the sensors cannot see "
+                  f"{'; '.join(quality.lost)}", stacklevel=2)
   model = model_lib.build_spec(scene.params).compile()
   per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
   seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)

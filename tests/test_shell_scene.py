@@ -107,3 +107,10 @@ def test_static_pose_matches_the_simulated_rest_under_a_steady_wrench():
   adr = model_lib.mount_qpos_index(model)
   np.testing.assert_allclose(data.qpos[adr], shell.static_pose(SMALL.params, w)[0],
                              rtol=0.03, atol=2e-6)
+
+
+def test_rank_deficient_slopes_run_with_a_warning_naming_the_lost_direction():
+  flat_x = dataclasses.replace(SMALL.params, slope_x=0.0)
+  with pytest.warns(UserWarning, match=r"rank 5: the sensors cannot see 1 x"):
+    r = shell.simulate(dataclasses.replace(SMALL, params=flat_x, frames=500))
+  assert np.isfinite(r.counts).all()
