@@ -7,7 +7,8 @@ fitted on the first and scored on the second: median percent error over |F| > 0.
 |M| > 10 mN m, and worst-case error as % of each axis's test range, beside the paper's values.
 Also printed: the physics time of the ~1.4 M steps, the share of frames outside the
 sensors' 2-4 mm window and the test loads' range per axis beside the paper's Table II.
-`--set` takes `ShellScene` fields (force_range=0.8, params.slope_x=0.1, downward_bias=0.8,
+The runs are written as recordings to DIR/recordings/{calibration,test}.npz/.json and the
+fit to DIR/estimator.npz. `--set` takes `ShellScene` fields (force_range=0.8, params.slope_x=0.1, downward_bias=0.8,
 effects=sensor_noise,ray_miss).
 
 With only the sourced effects (noise, 12-bit conversion, the sensor curve outside its
@@ -22,6 +23,7 @@ import numpy as np
 
 from benchmarks import shell_data
 from calibrate import metrics
+from sim import shell
 
 DESCRIPTION = "shell paper Table I: cubic calibration, median % error and worst % of range"
 AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
@@ -33,6 +35,9 @@ PAPER_RANGE = {"Fx": 2.3, "Fy": 2.1, "Fz": 1.9, "Mx": 96, "My": 127, "Mz": 138} 
 
 def run(ctx) -> dict:
   runs, est = shell_data.calibrated(ctx)
+  for name, scene in shell_data.scenes(ctx).items():
+    shell.to_recording(runs[name], scene).save(ctx.out / "recordings" / name)
+  est.save(ctx.out / "estimator.npz")
   steps = sum(r.steps for r in runs.values())
   seconds = sum(r.seconds for r in runs.values())
   cal, test = runs["calibration"], runs["test"]

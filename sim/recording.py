@@ -12,53 +12,67 @@ import json
 import os
 import pathlib
 import tempfile
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
-_ARRAYS = ("time", "counts", "pressure", "wrench", "element_force", "cnc", "path", "z_level",
-           "phase", "episode")
+_REQUIRED = ("time", "counts", "wrench", "episode")
+_OPTIONAL = ("pressure", "element_force", "cnc", "path", "z_level", "phase", "height", "pose")
 
 
 @dataclasses.dataclass(frozen=True)
 class Recording:
-  """Synchronised samples of sensor output and ground truth.
+  """Synchronised samples of sensor output and ground truth, from any scene.
+
+  Every scene fills the first four arrays; the others belong to the scenes that have them
+  (None otherwise).
 
   Attributes:
     time: (N,) s since the start of each episode.
     counts: (N, D) ADC counts of the D sensors, float64.
-    pressure: (N, D) die pressures before the sensor chain, Pa gauge (compressive positive).
-    wrench: (N, 6) plate F/T reading: force (N) and torque about the plate site (N m) that the
-      plate exerts on the pad (+z compresses the pad), with `ft_noise` if listed.
-    element_force: (N, 3) sum of the element spring forces, N: truth free of rig transients.
-    cnc: (N, 3) carriage position, m.
-    path: (N,) index into meta["paths"].
-    z_level: (N,) nominal indentation, m.
-    phase: (N,) 1 on the path at its indentation, 0 approaching or retreating.
-    episode: (N,) index of the continuous run the sample belongs to.
-    meta: scene parameters, effects, seed, versions.
+    wrench: (N, 6) F/T truth: force (N) and torque about the F/T site (N m). Footpad: what
+      the plate exerts on the pad (+z compresses the pad), with `ft_noise` if listed. Shell:
+      the wrench on the shell, tared at no load.
+    episode: (N,) index of the continuous run (footpad episode, shell session).
+    meta: scene parameters, effects, seed, versions, "scene".
+    pressure: footpad, (N, D) die pressures before the sensor chain, Pa gauge.
+    element_force: footpad, (N, 3) sum of the element spring forces, N: truth free of rig
+      transients.
+    cnc: footpad, (N, 3) carriage position, m.
+    path: footpad, (N,) index into meta["paths"].
+    z_level: footpad, (N,) nominal indentation, m.
+    phase: footpad, (N,) 1 on the path at its indentation, 0 approaching or retreating.
+    height: shell, (N, 8) reflector heights above the sensors, m (NaN: a missed facet).
+    pose: shell, (N, 6) mount joints: displacement (m) and hinge angles (rad).
   """
   time: np.ndarray
   counts: np.ndarray
-  pressure: np.ndarray
   wrench: np.ndarray
-  element_force: np.ndarray
-  cnc: np.ndarray
-  path: np.ndarray
-  z_level: np.ndarray
-  phase: np.ndarray
   episode: np.ndarray
   meta: dict[str, Any]
+  pressure: Optional[np.ndarray] = None
+  element_force: Optional[np.ndarray] = None
+  cnc: Optional[np.ndarray] = None
+  path: Optional[np.ndarray] = None
+  z_level: Optional[np.ndarray] = None
+  phase: Optional[np.ndarray] = None
+  height: Optional[np.ndarray] = None
+  pose: Optional[np.ndarray] = None
+
+  def _arrays(self) -> dict[str, np.ndarray]:
+    return {k: getattr(self, k) for k in _REQUIRED + _OPTIONAL if getattr(self, k) is not None}
 
   def __len__(self) -> int:
     return len(self.time)
 
   def select(self, mask: np.ndarray) -> "Recording":
     """The samples where mask is True (same metadata)."""
-    return dataclasses.replace(self, **{k: getattr(self, k)[mask] for k in _ARRAYS})
+    return dataclasses.replace(self, **{k: v[mask] for k, v in self._arrays().items()})
 
   def paths(self, *names: str) -> "Recording":
     """The samples of the named paths."""
+    if self.path is None:
+      raise ValueError("this recording has no paths (it is not a footpad recording)")
     known = self.meta["paths"]
     for n in names:
       if n not in known:
@@ -78,20 +92,20 @@ class Recording:
     atomic_write(stem.with_suffix(".json"),
             lambda f: f.write(json.dumps(self.meta, indent=1, sort_keys=True).encode()))
     atomic_write(stem.with_suffix(".npz"),
-            lambda f: np.savez(f, **{k: getattr(self, k) for k in _ARRAYS}))
+            lambda f: np.savez(f, **self._arrays()))
     return stem.with_suffix(".npz")
 
   @classmethod
   def load(cls, stem: str | os.PathLike) -> "Recording":
     stem = pathlib.Path(stem)
     with np.load(stem.with_suffix(".npz")) as z:
-      arrays = {k: z[k] for k in _ARRAYS}
+      arrays = {k: z[k] for k in _REQUIRED + _OPTIONAL if k in z.files}
     meta = json.loads(stem.with_suffix(".json").read_text())
     return cls(meta=meta, **arrays)
 
   @classmethod
   def concatenate(cls, parts: list["Recording"], meta: dict[str, Any]) -> "Recording":
-    arrays = {k: np.concatenate([getattr(p, k) for p in parts]) for k in _ARRAYS}
+    arrays = {k: np.concatenate([p._arrays()[k] for p in parts]) for k in parts[0]._arrays()}
     return cls(meta=meta, **arrays)
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.interpolate
 
 from models import shell as model_lib
-from sim import photointerrupter, shell_geometry
+from sim import photointerrupter, recording, shell_geometry
 from sim.effects import SHELL_EFFECTS, check_effects
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
@@ -267,3 +267,20 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
                                           for i, p in enumerate(parts)]),
                   seconds=seconds, steps=int(per_session.sum()) * spf, out_of_window=out,
                   bottomed=bottomed)
+
+
+def to_recording(run: ShellRun, scene: ShellScene) -> recording.Recording:
+  """The run as a `Recording` (the type every calibrator and file takes), 100 Hz frames."""
+  per = np.bincount(run.session)
+  t = np.concatenate([np.arange(1, n + 1) / FRAME_RATE for n in per])
+  config = dataclasses.asdict(scene)
+  return recording.Recording(
+      time=t, counts=run.counts, wrench=run.wrench, episode=run.session, height=run.height,
+      pose=run.pose,
+      meta={"scene": "shell", "config": config, "effects": list(scene.effects),
+            "seed": scene.seed, "sensors": "GP2S60 x8",
+            "out_of_window": run.out_of_window, "bottomed": run.bottomed,
+            "units": {"counts": "ADC counts", "wrench": "N, N m", "height": "m",
+                      "pose": "m, rad", "time": "s"},
+            "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__,
+                         "recording_format": "1"}})

@@ -114,3 +114,17 @@ def test_rank_deficient_slopes_run_with_a_warning_naming_the_lost_direction():
   with pytest.warns(UserWarning, match=r"rank 5: the sensors cannot see 1 x"):
     r = shell.simulate(dataclasses.replace(SMALL, params=flat_x, frames=500))
   assert np.isfinite(r.counts).all()
+
+
+def test_run_saves_and_loads_as_a_recording(run, tmp_path):
+  from sim import recording
+  rec = shell.to_recording(run, SMALL)
+  rec.save(tmp_path / "cal")
+  back = recording.Recording.load(tmp_path / "cal")
+  assert back.counts.tobytes() == run.counts.tobytes()
+  assert back.height.tobytes() == run.height.tobytes()
+  assert back.pressure is None and back.meta["scene"] == "shell"
+  half = back.select(back.episode == 0)
+  assert len(half) == int(np.sum(run.session == 0))
+  with pytest.raises(ValueError, match="no paths"):
+    back.on_path("asterisk")
