@@ -117,7 +117,7 @@ def simulate(walk: Walk) -> WalkRun:
   shell_geom = model.geom("shell").id
   chassis_q = [model.joint(f"chassis_{n}").qposadr[0] for n in ("x", "y", "z", "yaw")]
   centre = model_lib.elastic_centre(walk.params)
-  weight = 9.81 * sum(model.body_mass)
+  weight = -model.opt.gravity[2] * float(np.sum(model.body_mass))
   steps = int(round(walk.duration / dt))
   poses, contact, base = [], [], []
   force6 = np.zeros(6)
