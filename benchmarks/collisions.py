@@ -21,11 +21,12 @@ PAPER = {"walking_amplitude": 0.15, "corner_fx": -0.2, "corner_fy": -0.2, "head_
 
 
 def run(ctx) -> dict:
-  params = shell_data.scenes(ctx)["calibration"].params
+  board = shell_data.scenes(ctx)["calibration"]
   _, est = shell_data.calibrated(ctx)
   out = {}
   for wall in shell_walk.WALLS:
-    r = shell_walk.simulate(shell_walk.Walk(params=params, wall=wall, seed=ctx.seed))
+    r = shell_walk.simulate(shell_walk.Walk(params=board.params, wall=wall, seed=ctx.seed,
+                                            effects=board.effects, unit_seed=board.unit_seed))
     f = est.predict(r.counts)
     walking = (r.time > 0.5) & (r.time < 1.5)  # before any wall
     last = r.time > r.time[-1] - 1.0

@@ -40,9 +40,12 @@ def gravity_sequence(steps_per_turn: int, g: float = 9.81) -> np.ndarray:
   return np.concatenate([about_y, about_x])
 
 
-def turn(params: model_lib.ShellParams, seed: int) -> tuple[np.ndarray, np.ndarray]:
-  """Frames at 100 Hz: (counts (F, 8), gravity in the chassis frame (F, 3))."""
-  model = model_lib.build_spec(dataclasses.replace(params, payload=PAYLOAD)).compile()
+def turn(scene: shell.ShellScene, seed: int) -> tuple[np.ndarray, np.ndarray]:
+  """Frames at 100 Hz: (counts (F, 8), gravity in the chassis frame (F, 3)), on the board and
+  with the effects of `scene` (the calibration's)."""
+  params = scene.params
+  model = model_lib.build_spec(dataclasses.replace(params, payload=PAYLOAD),
+                               hysteresis="spring_hysteresis" in scene.effects).compile()
   data = mujoco.MjData(model)
   dt = model.opt.timestep
   grav = gravity_sequence(int(round(TURN_SECONDS / dt)))
@@ -57,7 +60,8 @@ def turn(params: model_lib.ShellParams, seed: int) -> tuple[np.ndarray, np.ndarr
     if i % spf == spf - 1:
       poses.append(data.qpos[adr].copy())
   heights = shell.heights_from_pose(params, np.array(poses))
-  counts = photointerrupter.apply(heights, shell.ShellScene().effects, seed)
+  counts = photointerrupter.apply(heights, scene.effects, seed, scene.sensor,
+                                  unit_seed=scene.unit_seed)
   return counts, grav[spf - 1::spf]
 
 
@@ -80,7 +84,7 @@ def compare(force: np.ndarray, gravity: np.ndarray) -> dict:
 def run(ctx) -> dict:
   out = {}
   base = shell_data.scenes(ctx)["calibration"]
-  counts, gravity = turn(base.params, ctx.seed)
+  counts, gravity = turn(base, ctx.seed)
   ctx.print(f"{'calibration loads':26s} {'mean mass g':>12s} {'mean angle deg':>15s} "
             f"{'|A_z| legs up m/s2':>19s}")
   for name, bias in (("every direction", 0.0), (f"mostly down (bias {BIASED})", BIASED)):

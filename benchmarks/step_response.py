@@ -28,9 +28,12 @@ DROP = 0.005  # m above the chassis's underside
 DROP_AT, END = 1.0, 4.0  # s
 
 
-def drop(params: model_lib.ShellParams, seed: int) -> dict:
-  """Simulates the drop; returns 1 kHz mount z, 100 Hz counts and the moving mass."""
-  spec = model_lib.build_spec(params, base="free", contacts=True)
+def drop(scene: shell.ShellScene, seed: int) -> dict:
+  """Simulates the drop on the board and with the effects of `scene` (the calibration's);
+  returns 1 kHz mount z, 100 Hz counts and the moving mass."""
+  params = scene.params
+  spec = model_lib.build_spec(params, base="free", contacts=True,
+                              hysteresis="spring_hysteresis" in scene.effects)
   spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.3, 0.3, 0.01],
                           friction=[0.7, 0.005, 1e-4])
   # inverted: chassis frame z points down; the shell's outer face on the floor
@@ -57,8 +60,8 @@ def drop(params: model_lib.ShellParams, seed: int) -> dict:
     mujoco.mj_step(model, data)
     pose[i] = data.qpos[adr]
   frames = pose[spf - 1::spf]
-  counts = photointerrupter.apply(shell.heights_from_pose(params, frames),
-                                  shell.ShellScene().effects, seed)
+  counts = photointerrupter.apply(shell.heights_from_pose(params, frames), scene.effects, seed,
+                                  scene.sensor, unit_seed=scene.unit_seed)
   moving = model.body("chassis").subtreemass[0] - model.body("shell").subtreemass[0] + PAYLOAD
   return {"z": pose[:, 2], "counts": counts, "moving_mass": moving, "dt": dt,
           "frame_dt": spf * dt}
@@ -76,9 +79,10 @@ def ringing_hz(z: np.ndarray, dt: float) -> float:
 
 
 def run(ctx) -> dict:
-  params = shell_data.scenes(ctx)["calibration"].params
+  scene = shell_data.scenes(ctx)["calibration"]
+  params = scene.params
   _, est = shell_data.calibrated(ctx)
-  sim = drop(params, ctx.seed)
+  sim = drop(scene, ctx.seed)
   dt = sim["dt"]
   after = sim["z"][int(round(DROP_AT / dt)) + 20:int(round((DROP_AT + 1.5) / dt))]
   hz = ringing_hz(after, dt)

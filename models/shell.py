@@ -52,6 +52,8 @@ class ShellParams:
     reflector_size: side of each reflector facet, m (assumed 5 mm).
     payload: mass fixed on top of the shell's centre, kg (the paper's experiments: 50 g);
       the preload is for the shell alone, so a payload sags the shell.
+    mount_friction: for the `spring_hysteresis` effect, Coulomb friction of the mount's
+      slides (N) and hinges (N m); assumed 1 % of the hand loads' range.
     timestep: simulation step, s (the joint springs are explicit: keep it <= 2 ms,
       DESIGN.md).
   """
@@ -72,6 +74,7 @@ class ShellParams:
   sensor_y: tuple[float, ...] = (0.0, -0.008, 0.0, 0.008, 0.0, 0.008, 0.0, -0.008)
   reflector_size: float = 0.005
   payload: float = 0.0
+  mount_friction: tuple[float, float] = (0.01, 0.0006)
   timestep: float = 0.001
 
   def validate(self) -> None:
@@ -196,7 +199,8 @@ def facet_mesh(params: ShellParams, i: int):
   return trimesh.convex.convex_hull(np.array(pts))
 
 
-def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) -> mujoco.MjSpec:
+def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
+               hysteresis: bool = False) -> mujoco.MjSpec:
   """The rig: F/T body welded to the world, chassis welded to it, shell on its mount.
 
   Args:
@@ -207,6 +211,7 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
       `chassis_yaw` for scripted gaits (walking into walls).
     contacts: the chassis and shell collide with other bodies (the floor, a dropped mass),
       never with each other; off, nothing collides.
+    hysteresis: Coulomb friction `mount_friction` on the mount joints (`spring_hysteresis`).
 
   Sensors: `ft_force`, `ft_torque` (on site `ft`, the chassis's interaction with the F/T
   body, reported child-to-parent as MuJoCo does); sites `P1`..`P8` on the PCB, z up.
@@ -251,8 +256,14 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False) ->
   stiff = mount_stiffness(params)
   for j, (kind, axis) in enumerate([("slide", a) for a in AXES] + [("hinge", a) for a in AXES]):
     spec_type = mujoco.mjtJoint.mjJNT_SLIDE if kind == "slide" else mujoco.mjtJoint.mjJNT_HINGE
-    shell.add_joint(name=f"mount_{'r' if kind == 'hinge' else ''}{axis}", type=spec_type,
-                    axis=np.eye(3)[AXES.index(axis)], stiffness=stiff[j])
+    friction = params.mount_friction[kind == "hinge"] if hysteresis else 0.0
+    joint = shell.add_joint(name=f"mount_{'r' if kind == 'hinge' else ''}{axis}",
+                            type=spec_type, axis=np.eye(3)[AXES.index(axis)],
+                            stiffness=stiff[j], frictionloss=friction)
+    if hysteresis:
+      # MuJoCo's friction rows are soft and creep; stiff rows hold like Coulomb friction
+      joint.solref_friction = [2 * params.timestep, 1.0]
+      joint.solimp_friction = [0.99, 0.999, 0.001, 0.5, 2.0]
   top = spring_top(params)
   plate_z = top - _PLATE_THICKNESS / 2 - centre[2]
   shell.add_geom(name="reflector_plate", type=mujoco.mjtGeom.mjGEOM_BOX,

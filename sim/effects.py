@@ -91,6 +91,21 @@ SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "'standard deviation of only 1 bit' at a static height (Sec. II-B)."),
     Effect("adc_quantisation", Kind.SIGNAL,
            "12-bit conversion of the microcontroller's ADC: counts are floored to integers."),
+    Effect("unit_spread", Kind.SIGNAL,
+           "Unit-to-unit spread of the photointerrupters: each sensor's 1/r coefficient a x "
+           "N(1, Photointerrupter.gain_spread = 0.15) and offset b + N(0, offset_spread = 30 "
+           "counts). Assumed: the paper fits a and b per sensor (Eqns 1-2) because units "
+           "differ, but gives no spread."),
+    Effect("stray_ir", Kind.SIGNAL,
+           "Stray infrared light reaching the detectors through the open shell: an offset "
+           "wandering as an Ornstein-Uhlenbeck process, shared by all sensors (room light) plus "
+           "a per-sensor part, each Photointerrupter.stray_ir = 20 counts rms with a "
+           "stray_ir_time = 5 s correlation time. Assumed; the paper names stray IR as a "
+           "problem for new shells to shield against (Sec. IV) without a size."),
+    Effect("spring_hysteresis", Kind.MODEL,
+           "Coulomb friction in the mount (spring seats, shell fixings): frictionloss on the "
+           "mount joints of ShellParams.mount_friction = 10 mN and 0.6 mN m, 1 % of the hand "
+           "loads' range. Assumed; steel springs themselves are nearly lossless."),
 ]}
 
 

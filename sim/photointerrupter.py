@@ -31,14 +31,26 @@ class Photointerrupter:
     peak: height of the response peak, m (~0.8 mm).
     full_scale: largest ADC count (12-bit: 4095).
     window: (low, high) heights, m, where the 1/r law is fitted and trusted (2-4 mm).
+    gain_spread, offset_spread: `unit_spread` effect: relative sd of a, sd of b (counts).
+    stray_ir, stray_ir_time: `stray_ir` effect: rms offset (counts) of each of its two parts
+      and their correlation time (s).
   """
   a: float = 7.7
   b: float = 50.0
   peak: float = 0.0008
   full_scale: int = 4095
   window: tuple[float, float] = (0.002, 0.004)
+  gain_spread: float = 0.15
+  offset_spread: float = 30.0
+  stray_ir: float = 20.0
+  stray_ir_time: float = 5.0
 
   def validate(self) -> None:
+    for name in ("gain_spread", "offset_spread", "stray_ir"):
+      if not 0 <= getattr(self, name) < 1e4:
+        raise ValueError(f"{name}={getattr(self, name)!r} is out of range: allowed [0, 1e4)")
+    if not self.stray_ir_time > 0:
+      raise ValueError(f"stray_ir_time={self.stray_ir_time!r} is out of range: allowed > 0 s")
     if not self.a > 0:
       raise ValueError(f"a={self.a!r} is out of range: allowed > 0 counts m")
     if not 0 < self.peak < self.window[0] < self.window[1]:
@@ -94,12 +106,44 @@ def range_from_counts(counts: np.ndarray, a: float, b: float) -> np.ndarray:
     return np.where(s > b, a / (s - b), np.nan)
 
 
+def _wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,
+            steps_per_tau: float) -> np.ndarray:
+  """An Ornstein-Uhlenbeck process along axis 0, stationary from the first sample."""
+  phi = np.exp(-1.0 / steps_per_tau)
+  kick = rng.normal(0.0, rms * np.sqrt(1 - phi**2), shape)
+  kick[0] = rng.normal(0.0, rms, shape[1])
+  out = np.empty(shape)
+  out[0] = kick[0]
+  for i in range(1, shape[0]):
+    out[i] = phi * out[i - 1] + kick[i]
+  return out
+
+
 def apply(height: np.ndarray, effects, seed: int,
-          sensor: Photointerrupter = Photointerrupter()) -> np.ndarray:
-  """Counts (N, 8) float64 from heights (N, 8), m, with the listed `SHELL_EFFECTS`."""
+          sensor: Photointerrupter = Photointerrupter(),
+          frame_rate: float = 100.0, unit_seed: int | None = None) -> np.ndarray:
+  """Counts (N, 8) float64 from heights (N, 8), m, frames at frame_rate (Hz), with the listed
+  signal effects of `SHELL_EFFECTS` (model effects are the scene's).
+
+  unit_seed draws the `unit_spread` of the physical sensors (default: seed); runs of one
+  board (calibration, test) share it while their noise differs.
+  """
   effects = check_effects(effects, SHELL_EFFECTS)
   sensor.validate()
   counts = sensor.counts(height, near_field="out_of_window" in effects)
+  if "unit_spread" in effects:
+    rng = rng_for(seed if unit_seed is None else unit_seed, "unit_spread")
+    gain = rng.normal(1.0, sensor.gain_spread, counts.shape[1])
+    offset = rng.normal(0.0, sensor.offset_spread, counts.shape[1])
+    counts = (counts - sensor.b) * gain + sensor.b + offset
+  if "stray_ir" in effects:
+    rng = rng_for(seed, "stray_ir")
+    tau = sensor.stray_ir_time * frame_rate
+    n = counts.shape[0]
+    counts = (counts + _wander(rng, (n, 1), sensor.stray_ir, tau)
+              + _wander(rng, counts.shape, sensor.stray_ir, tau))
+  if {"unit_spread", "stray_ir"} & set(effects):
+    counts = np.clip(counts, 0.0, float(sensor.full_scale))
   if "sensor_noise" in effects:
     counts = counts + rng_for(seed, "sensor_noise").normal(0.0, 1.0, counts.shape)
     counts = np.clip(counts, 0.0, float(sensor.full_scale))

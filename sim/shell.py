@@ -53,6 +53,9 @@ class ShellScene:
       False draws the targets from the full box.
     loading: "hand" (the random sweeps) or "rest" (no load: noise and offsets alone).
     sessions: continuous loading sessions, run in parallel, each from rest to rest.
+    sensor: the photointerrupters' response and the sizes of their effects.
+    unit_seed: which physical board: draws the sensors' `unit_spread`, shared by the runs of
+      one board (calibration and test) while `seed` draws their loads and noise.
     effects: names from `sim.effects.SHELL_EFFECTS`; by default the ones whose magnitude
       has a source (`ray_miss` waits on the real facet size: opt in with effects=...).
     seed: one integer for every random draw.
@@ -68,10 +71,13 @@ class ShellScene:
   loading: str = "hand"
   sessions: int = 2
   effects: tuple[str, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
+  sensor: photointerrupter.Photointerrupter = photointerrupter.Photointerrupter()
+  unit_seed: int = 0
   seed: int = 0
 
   def validate(self) -> None:
     self.params.validate()
+    self.sensor.validate()
     check_effects(self.effects, SHELL_EFFECTS)
     checks = [
         (1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames),
@@ -206,7 +212,8 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
     warnings.warn(f"slopes c_x={scene.params.slope_x}, c_y={scene.params.slope_y} give a height "
                   f"map of rank {quality.rank}: the sensors cannot see "
                   f"{'; '.join(quality.lost)}", stacklevel=2)
-  model = model_lib.build_spec(scene.params).compile()
+  model = model_lib.build_spec(scene.params,
+                               hysteresis="spring_hysteresis" in scene.effects).compile()
   per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
   seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)
   threads = threads or min(os.cpu_count() or 1, scene.sessions)
@@ -260,7 +267,8 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
                   f"({scene.force_range} N) or torque_range ({scene.torque_range} N m)",
                   stacklevel=2)
   return ShellRun(pose=pose, height=height,
-                  counts=photointerrupter.apply(height, scene.effects, scene.seed),
+                  counts=photointerrupter.apply(height, scene.effects, scene.seed,
+                                                scene.sensor, FRAME_RATE, scene.unit_seed),
                   wrench=np.concatenate([p[1] for p in parts]),
                   applied=np.concatenate([p[2] for p in parts]),
                   session=np.concatenate([np.full(len(p[0]), i, np.int32)

@@ -35,6 +35,8 @@ class Walk:
     speed: free walking speed, m/s (assumed 0.15); sets the legs' ground drag thrust/speed.
     distance: free path before the wall, m.
     duration: s.
+    effects: `SHELL_EFFECTS` of the sensor chain (and `spring_hysteresis`).
+    unit_seed: the board (see `sim.shell.ShellScene`).
     seed: for the sensor chain's noise.
   """
   params: model_lib.ShellParams = model_lib.ShellParams()
@@ -45,6 +47,8 @@ class Walk:
   speed: float = 0.15
   distance: float = 0.3
   duration: float = 5.0
+  effects: tuple[str, ...] = shell.ShellScene.effects
+  unit_seed: int = 0
   seed: int = 0
 
   def validate(self) -> None:
@@ -76,7 +80,8 @@ class WalkRun:
 
 
 def _model(walk: Walk) -> mujoco.MjModel:
-  spec = model_lib.build_spec(walk.params, base="planar", contacts=True)
+  spec = model_lib.build_spec(walk.params, base="planar", contacts=True,
+                              hysteresis="spring_hysteresis" in walk.effects)
   world = spec.worldbody
   if walk.wall != "none":
     # the wall's face sits `distance` ahead of the shell's front edge
@@ -148,7 +153,7 @@ def simulate(walk: Walk) -> WalkRun:
     contact.append(total)
     base.append(data.qpos[chassis_q].copy())
   pose = np.array(poses)
-  counts = photointerrupter.apply(shell.heights_from_pose(walk.params, pose),
-                                  shell.ShellScene().effects, walk.seed)
+  counts = photointerrupter.apply(shell.heights_from_pose(walk.params, pose), walk.effects,
+                                  walk.seed, unit_seed=walk.unit_seed)
   return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts,
                  contact=np.array(contact), pose=np.array(base))

@@ -63,3 +63,32 @@ def test_chain_effects_are_independent_and_seeded():
   assert photointerrupter.apply(h, ("sensor_noise",), seed=1).tobytes() == noisy.tobytes()
   with pytest.raises(ValueError, match="unknown effect"):
     photointerrupter.apply(h, ("glare",), seed=1)
+
+
+def test_unit_spread_is_an_affine_map_per_sensor():
+  from sim import photointerrupter
+  h = np.random.default_rng(2).uniform(0.0022, 0.0038, (3000, 8))
+  ideal = photointerrupter.apply(h, (), seed=4)
+  spread = photointerrupter.apply(h, ("unit_spread",), seed=4)
+  slopes = []
+  for i in range(8):
+    fit = np.polyfit(ideal[:, i], spread[:, i], 1, full=True)
+    slopes.append(fit[0][0])
+    assert fit[1][0] < 1e-12 * np.sum(spread[:, i] ** 2)  # exactly affine
+  assert 0.05 < np.std(slopes) < 0.3  # gain_spread 0.15 over 8 units
+
+
+def test_stray_ir_wanders_with_its_rms_and_correlation_time():
+  from sim import photointerrupter
+  h = np.full((200_000, 8), 0.003)
+  base = photointerrupter.apply(h, (), seed=1)
+  ir = photointerrupter.apply(h, ("stray_ir",), seed=1) - base
+  # shared + own parts, each 20 counts rms
+  assert np.std(ir) == pytest.approx(np.sqrt(2) * S.stray_ir, rel=0.1)
+  # Ornstein-Uhlenbeck: autocorrelation exp(-lag / tau) at lag tau (5 s at 100 Hz)
+  x = ir[:, 0] - ir[:, 0].mean()
+  lag = int(S.stray_ir_time * 100)
+  rho = np.mean(x[:-lag] * x[lag:]) / np.var(x)
+  assert rho == pytest.approx(np.exp(-1), abs=0.1)
+  # the shared part moves all sensors together
+  assert np.corrcoef(ir[:, 0], ir[:, 1])[0, 1] == pytest.approx(0.5, abs=0.15)

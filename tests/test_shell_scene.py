@@ -128,3 +128,24 @@ def test_run_saves_and_loads_as_a_recording(run, tmp_path):
   assert len(half) == int(np.sum(run.session == 0))
   with pytest.raises(ValueError, match="no paths"):
     back.on_path("asterisk")
+
+
+def test_spring_hysteresis_opens_a_loop_of_twice_the_friction():
+  """Loaded slowly up and down in z, the shell lags by the mount's Coulomb friction: at the
+  same force the loading and unloading displacements differ by 2 f / k."""
+  p = SMALL.params
+  model = model_lib.build_spec(p, hysteresis=True).compile()
+  data = mujoco.MjData(model)
+  z = model_lib.mount_qpos_index(model)[2]
+  load = np.concatenate([np.linspace(0, -0.5, 4000), np.linspace(-0.5, 0, 4000)])
+  trace = []
+  for f in load:
+    data.xfrc_applied[:] = shell._xfrc(model, data, np.array([[0, 0, f, 0, 0, 0]]))[0].reshape(
+        model.nbody, 6)
+    mujoco.mj_step(model, data)
+    trace.append(data.qpos[z])
+  trace = np.array(trace)
+  up, down = trace[2000], trace[6000]  # both at -0.25 N
+  width = abs(up - down)
+  expected = 2 * p.mount_friction[0] / model_lib.mount_stiffness(p)[2]
+  assert width == pytest.approx(expected, rel=0.15)
