@@ -21,12 +21,11 @@ PAPER = {"walking_amplitude": 0.15, "corner_fx": -0.2, "corner_fy": -0.2, "head_
 
 
 def run(ctx) -> dict:
-  board = shell_data.scenes(ctx)["calibration"]
-  _, est = shell_data.calibrated(ctx)
+  cal = shell_data.calibrated(ctx)
+  board, est = cal.board, cal.estimator
   out = {}
   for wall in shell_walk.WALLS:
-    r = shell_walk.simulate(shell_walk.Walk(params=board.params, wall=wall, seed=ctx.seed,
-                                            effects=board.effects, unit_seed=board.unit_seed))
+    r = shell_walk.simulate(shell_walk.Walk(board=board, wall=wall, seed=ctx.seed))
     f = est.predict(r.counts)
     walking = (r.time > 0.5) & (r.time < 1.5)  # before any wall
     last = r.time > r.time[-1] - 1.0

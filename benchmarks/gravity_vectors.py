@@ -22,7 +22,7 @@ import numpy as np
 
 from benchmarks import shell_data
 from models import shell as model_lib
-from sim import photointerrupter, shell
+from sim import shell
 
 DESCRIPTION = "shell vs accelerometer, 50 g on the shell, robot turned through sequence A-I"
 PAYLOAD = 0.05
@@ -43,14 +43,13 @@ def gravity_sequence(steps_per_turn: int, g: float = 9.81) -> np.ndarray:
 def turn(scene: shell.ShellScene, seed: int) -> tuple[np.ndarray, np.ndarray]:
   """Frames at 100 Hz: (counts (F, 8), gravity in the chassis frame (F, 3)), on the board and
   with the effects of `scene` (the calibration's)."""
-  params = scene.params
-  model = model_lib.build_spec(dataclasses.replace(params, payload=PAYLOAD),
-                               hysteresis="spring_hysteresis" in scene.effects).compile()
+  loaded = dataclasses.replace(scene, params=dataclasses.replace(scene.params, payload=PAYLOAD))
+  model = loaded.spec().compile()
   data = mujoco.MjData(model)
   dt = model.opt.timestep
   grav = gravity_sequence(int(round(TURN_SECONDS / dt)))
   adr = model_lib.mount_qpos_index(model)
-  spf = int(round(1 / (shell.FRAME_RATE * dt)))
+  spf = shell.frame_steps(dt)
   for _ in range(1000):  # settle legs down with the mass on
     mujoco.mj_step(model, data)
   poses = []
@@ -59,9 +58,7 @@ def turn(scene: shell.ShellScene, seed: int) -> tuple[np.ndarray, np.ndarray]:
     mujoco.mj_step(model, data)
     if i % spf == spf - 1:
       poses.append(data.qpos[adr].copy())
-  heights = shell.heights_from_pose(params, np.array(poses))
-  counts = photointerrupter.apply(heights, scene.effects, seed, scene.sensor,
-                                  unit_seed=scene.unit_seed)
+  _, counts = shell.sense(scene, np.array(poses), seed)
   return counts, grav[spf - 1::spf]
 
 
@@ -89,7 +86,7 @@ def run(ctx) -> dict:
             f"{'|A_z| legs up m/s2':>19s}")
   for name, bias in (("every direction", 0.0), (f"mostly down (bias {BIASED})", BIASED)):
     sub = dataclasses.replace(ctx, overrides={**ctx.overrides, "downward_bias": str(bias)})
-    _, est = shell_data.calibrated(sub)
+    est = shell_data.calibrated(sub).estimator
     res = compare(est.predict(counts)[:, :3], gravity)
     out[name] = res
     ctx.print(f"{name:26s} {res['mean_mass_g']:12.1f} {res['mean_angle_deg']:15.1f} "

@@ -24,10 +24,30 @@ def scenes(ctx) -> dict[str, shell.ShellScene]:
   return out
 
 
-def calibrated(ctx) -> tuple[dict[str, shell.ShellRun], estimators.Estimator]:
-  """The runs of `scenes` and the polynomial pseudoinverse (s, s^2, s^3 of each sensor, paper
-  Eqns 4-9) fitted on the calibration run: counts -> (Fx, Fy, Fz, Mx, My, Mz)."""
+@dataclasses.dataclass(frozen=True)
+class Calibration:
+  """The shell runs of one benchmark and the fit made from them.
+
+  Attributes:
+    scenes: {"calibration", "test"} scenes (`scenes`); the calibration's is the board every
+      other shell scene of the run is read with.
+    runs: their simulated runs.
+    estimator: the polynomial pseudoinverse (s, s^2, s^3 of each sensor, paper Eqns 4-9)
+      fitted on the calibration run: counts -> (Fx, Fy, Fz, Mx, My, Mz).
+  """
+  scenes: dict[str, shell.ShellScene]
+  runs: dict[str, shell.ShellRun]
+  estimator: estimators.Estimator
+
+  @property
+  def board(self) -> shell.ShellScene:
+    return self.scenes["calibration"]
+
+
+def calibrated(ctx) -> Calibration:
+  """Runs `scenes` and fits the cubic calibration on the calibration run."""
+  sc = scenes(ctx)
   runs = {name: shell.simulate(scene, ctx.progress(f"{name} frames"))
-          for name, scene in scenes(ctx).items()}
+          for name, scene in sc.items()}
   cal = runs["calibration"]
-  return runs, estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench)
+  return Calibration(sc, runs, estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench))

@@ -34,8 +34,9 @@ PAPER_RANGE = {"Fx": 2.3, "Fy": 2.1, "Fz": 1.9, "Mx": 96, "My": 127, "Mz": 138} 
 
 
 def run(ctx) -> dict:
-  runs, est = shell_data.calibrated(ctx)
-  for name, scene in shell_data.scenes(ctx).items():
+  fit = shell_data.calibrated(ctx)
+  runs, est = fit.runs, fit.estimator
+  for name, scene in fit.scenes.items():
     shell.to_recording(runs[name], scene).save(ctx.out / "recordings" / name)
   est.save(ctx.out / "estimator.npz")
   steps = sum(r.steps for r in runs.values())
@@ -69,4 +70,4 @@ def run(ctx) -> dict:
           "physics": {"steps": steps, "seconds": seconds},
           "out_of_window": {k: r.out_of_window for k, r in runs.items()},
           "bottomed": {k: r.bottomed for k, r in runs.items()},
-          "effects": list(shell_data.scenes(ctx)["calibration"].effects)}
+          "effects": list(fit.board.effects)}

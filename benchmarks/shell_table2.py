@@ -25,8 +25,9 @@ REST_FRAMES = 1000
 
 
 def run(ctx) -> dict:
-  runs, est = shell_data.calibrated(ctx)
-  scene = shell_data.scenes(ctx)["test"]
+  fit = shell_data.calibrated(ctx)
+  runs, est = fit.runs, fit.estimator
+  scene = fit.scenes["test"]
   rest_seed = int(np.random.SeedSequence(ctx.seed).generate_state(3)[2])
   rest = shell.simulate(dataclasses.replace(scene, loading="rest", frames=REST_FRAMES,
                                             seed=rest_seed))

@@ -20,7 +20,7 @@ import numpy as np
 
 from benchmarks import shell_data
 from models import shell as model_lib
-from sim import photointerrupter, shell
+from sim import shell
 
 DESCRIPTION = "shell step response: 50 g dropped on the inverted robot, ringing Hz and Fz step"
 PAYLOAD = 0.05  # kg
@@ -31,14 +31,13 @@ DROP_AT, END = 1.0, 4.0  # s
 def drop(scene: shell.ShellScene, seed: int) -> dict:
   """Simulates the drop on the board and with the effects of `scene` (the calibration's);
   returns 1 kHz mount z, 100 Hz counts and the moving mass."""
-  params = scene.params
-  spec = model_lib.build_spec(params, base="free", contacts=True,
-                              hysteresis="spring_hysteresis" in scene.effects)
+  spec = scene.spec(base="free", contacts=True)
   spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.3, 0.3, 0.01],
                           friction=[0.7, 0.005, 1e-4])
   # inverted: chassis frame z points down; the shell's outer face on the floor
-  chassis_z = model_lib.spring_top(params) + 0.0105
-  underside = chassis_z + 0.014  # the chassis box's bottom face, now on top
+  chassis_z = model_lib.shell_top(scene.params)
+  # the chassis box's bottom face, now on top
+  underside = chassis_z - (model_lib.CHASSIS_Z - model_lib.CHASSIS_HALF[2])
   mass = spec.worldbody.add_body(name="mass", pos=[0, 0, underside + DROP + 0.003],
                                  gravcomp=1.0)
   mass.add_freejoint()
@@ -52,16 +51,14 @@ def drop(scene: shell.ShellScene, seed: int) -> dict:
   adr = model_lib.mount_qpos_index(model)
   dt = model.opt.timestep
   steps = int(round(END / dt))
-  spf = int(round(1 / (shell.FRAME_RATE * dt)))
+  spf = shell.frame_steps(dt)
   pose = np.empty((steps, 6))
   for i in range(steps):
     if i == int(round(DROP_AT / dt)):
       model.body_gravcomp[model.body("mass").id] = 0.0
     mujoco.mj_step(model, data)
     pose[i] = data.qpos[adr]
-  frames = pose[spf - 1::spf]
-  counts = photointerrupter.apply(shell.heights_from_pose(params, frames), scene.effects, seed,
-                                  scene.sensor, unit_seed=scene.unit_seed)
+  _, counts = shell.sense(scene, pose[spf - 1::spf], seed)
   moving = model.body("chassis").subtreemass[0] - model.body("shell").subtreemass[0] + PAYLOAD
   return {"z": pose[:, 2], "counts": counts, "moving_mass": moving, "dt": dt,
           "frame_dt": spf * dt}
@@ -79,9 +76,9 @@ def ringing_hz(z: np.ndarray, dt: float) -> float:
 
 
 def run(ctx) -> dict:
-  scene = shell_data.scenes(ctx)["calibration"]
+  fit = shell_data.calibrated(ctx)
+  scene, est = fit.board, fit.estimator
   params = scene.params
-  _, est = shell_data.calibrated(ctx)
   sim = drop(scene, ctx.seed)
   dt = sim["dt"]
   after = sim["z"][int(round(DROP_AT / dt)) + 20:int(round((DROP_AT + 1.5) / dt))]

@@ -164,7 +164,13 @@ def mount_stiffness(params: ShellParams) -> np.ndarray:
                    lateral * np.sum(xy**2) + n * twist])
 
 
+MOUNT_JOINTS = ("x", "y", "z", "rx", "ry", "rz")  # `mount_<name>`: 3 slides, then 3 hinges
 FT_SITE = (0.0, 0.0, -0.015)  # the F/T reference point in the chassis frame, m
+CHASSIS_HALF = (0.05, 0.025, 0.006)  # chassis box half-sizes, m
+CHASSIS_Z = -0.008  # chassis box centre below the PCB's top face, m
+# shell half-sizes, m: it overhangs the chassis so that obstacles meet it first
+SHELL_HALF = (0.056, 0.031, 0.0005)
+SHELL_LIFT = 0.01  # shell centre above the springs' upper ends, m
 REFLECTOR_GROUP = 3  # geom group of the facets, the only geoms the sensors' rays see
 _PLATE_THICKNESS = 0.001  # reflector plate above the facets, m (assumed)
 _FACET_THICKNESS = 0.0015  # facet material above its underside at the sensor, m (assumed)
@@ -174,6 +180,11 @@ _SHEET = 2e-5  # thickness of the facet meshes the rays see, m
 def spring_top(params: ShellParams) -> float:
   """Height of the springs' upper ends (the reflector plate's top) above the PCB, m."""
   return params.gap + _FACET_THICKNESS + _PLATE_THICKNESS
+
+
+def shell_top(params: ShellParams) -> float:
+  """Height of the shell's outer face above the PCB, m."""
+  return spring_top(params) + SHELL_LIFT + SHELL_HALF[2]
 
 
 def elastic_centre(params: ShellParams) -> np.ndarray:
@@ -244,8 +255,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
                           axis=np.eye(3)[i])
       chassis.add_joint(name="chassis_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
   chassis.add_site(name="ft", pos=list(FT_SITE))
-  chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.025, 0.006],
-                   pos=[0, 0, -0.008], mass=params.chassis_mass, rgba=[0.2, 0.2, 0.25, 1],
+  chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(CHASSIS_HALF),
+                   pos=[0, 0, CHASSIS_Z], mass=params.chassis_mass, rgba=[0.2, 0.2, 0.25, 1],
                    **collide)
   for i in range(8):
     chassis.add_site(name=f"P{i + 1}", pos=[params.sensor_x[i], params.sensor_y[i], 0.0],
@@ -254,12 +265,12 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
   centre = elastic_centre(params)
   shell = chassis.add_body(name="shell", pos=centre.tolist())
   stiff = mount_stiffness(params)
-  for j, (kind, axis) in enumerate([("slide", a) for a in AXES] + [("hinge", a) for a in AXES]):
-    spec_type = mujoco.mjtJoint.mjJNT_SLIDE if kind == "slide" else mujoco.mjtJoint.mjJNT_HINGE
-    friction = params.mount_friction[kind == "hinge"] if hysteresis else 0.0
-    joint = shell.add_joint(name=f"mount_{'r' if kind == 'hinge' else ''}{axis}",
-                            type=spec_type, axis=np.eye(3)[AXES.index(axis)],
-                            stiffness=stiff[j], frictionloss=friction)
+  for j, name in enumerate(MOUNT_JOINTS):
+    hinge = j >= 3
+    joint = shell.add_joint(name=f"mount_{name}", axis=np.eye(3)[j % 3], stiffness=stiff[j],
+                            type=mujoco.mjtJoint.mjJNT_HINGE if hinge else
+                            mujoco.mjtJoint.mjJNT_SLIDE,
+                            frictionloss=params.mount_friction[hinge] if hysteresis else 0.0)
     if hysteresis:
       # MuJoCo's friction rows are soft and creep; stiff rows hold like Coulomb friction
       joint.solref_friction = [2 * params.timestep, 1.0]
@@ -270,9 +281,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
                  size=[0.03, 0.015, _PLATE_THICKNESS / 2], pos=[0, 0, plate_z],
                  mass=params.reflector_mass, contype=0, conaffinity=0, group=2,
                  rgba=[0.8, 0.8, 0.8, 1])
-  # the shell overhangs the chassis (box +-50 x +-25 mm) so that obstacles meet it first
-  shell.add_geom(name="shell", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.056, 0.031, 0.0005],
-                 pos=[0, 0, top + 0.01 - centre[2]], mass=params.shell_mass, group=1,
+  shell.add_geom(name="shell", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(SHELL_HALF),
+                 pos=[0, 0, top + SHELL_LIFT - centre[2]], mass=params.shell_mass, group=1,
                  rgba=[0.3, 0.5, 0.9, 0.4], **collide)
   if params.payload > 0:
     shell.add_geom(name="payload", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.01, 0.005, 0],
@@ -301,15 +311,13 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
   full = np.zeros((model.nv, model.nv))
   mujoco.mj_fullM(model, data, full)
   weight = -model.opt.gravity[2] * (model.body("shell").subtreemass[0] - params.payload)
-  for j, joint in enumerate(j for j in spec.joints if j.name.startswith("mount_")):
+  for j, name in enumerate(MOUNT_JOINTS):
+    joint = spec.joint(f"mount_{name}")
     dof = model.joint(joint.name).dofadr[0]
     joint.damping = [2 * params.damping_ratio * math.sqrt(stiff[j] * full[dof, dof]), 0, 0]
     if joint.name == "mount_z":
       joint.springref = weight / stiff[2]  # unloaded rest above the design gap
   return spec
-
-
-MOUNT_JOINTS = ("x", "y", "z", "rx", "ry", "rz")
 
 
 def mount_qpos_index(model: mujoco.MjModel) -> np.ndarray:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import scipy.signal
 
 from sim.effects import SHELL_EFFECTS, check_effects, rng_for
 
@@ -112,11 +113,8 @@ def _wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,
   phi = np.exp(-1.0 / steps_per_tau)
   kick = rng.normal(0.0, rms * np.sqrt(1 - phi**2), shape)
   kick[0] = rng.normal(0.0, rms, shape[1])
-  out = np.empty(shape)
-  out[0] = kick[0]
-  for i in range(1, shape[0]):
-    out[i] = phi * out[i - 1] + kick[i]
-  return out
+  # out[i] = phi out[i-1] + kick[i], out[0] = kick[0]
+  return scipy.signal.lfilter([1.0], [1.0, -phi], kick, axis=0)
 
 
 def apply(height: np.ndarray, effects, seed: int,

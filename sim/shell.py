@@ -97,6 +97,25 @@ class ShellScene:
     if abs(dt * FRAME_RATE - 1) > 1e-9:
       raise ValueError(f"timestep x steps_per_frame = {dt} s: must be one 100 Hz frame")
 
+  def spec(self, base: str = "ft", contacts: bool = False) -> mujoco.MjSpec:
+    """The scene's rig (`models.shell.build_spec`) with the model effects it lists."""
+    return model_lib.build_spec(self.params, base, contacts,
+                                hysteresis="spring_hysteresis" in self.effects)
+
+
+def frame_steps(timestep: float) -> int:
+  """Physics steps per 100 Hz SkinProc frame."""
+  return int(round(1 / (FRAME_RATE * timestep)))
+
+
+def sense(scene: ShellScene, pose: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+  """What the board of `scene` reads at 100 Hz frames of mount joints `pose` (F, 6):
+  (heights (F, 8), m, NaN for a missed facet under `ray_miss`; counts (F, 8) through the
+  sensor chain with the scene's effects, noise drawn from `seed`)."""
+  height = heights_from_pose(scene.params, pose, finite_facets="ray_miss" in scene.effects)
+  return height, photointerrupter.apply(height, scene.effects, seed, scene.sensor, FRAME_RATE,
+                                        scene.unit_seed)
+
 
 def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.ndarray:
   """(steps, 6) smooth random wrench (N, N m) about the F/T site, one per physics step.
@@ -116,7 +135,7 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   knots = rng.uniform(lo, hi, (n_knots, 6))
   knots[0] = knots[-1] = 0.0
   if scene.in_window:
-    knots *= _window_scale(scene.params, knots)[:, None]
+    knots *= _window_scale(scene.params, knots, scene.sensor.window)[:, None]
   t_knots = np.linspace(0.0, steps * dt, n_knots)
   spline = scipy.interpolate.CubicSpline(t_knots, knots, bc_type="clamped")
   return spline(np.arange(steps) * dt)
@@ -131,10 +150,11 @@ def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray
   return np.concatenate([w[..., :3], m], axis=-1) / model_lib.mount_stiffness(params)
 
 
-def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray:
+def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
+                  window: tuple[float, float] = WINDOW) -> np.ndarray:
   """(K,) largest factor in [0, 1] keeping every static height inside the window, by
   bisection (the heights are monotonic along a ray of small loads)."""
-  lo_h, hi_h = WINDOW
+  lo_h, hi_h = window
 
   def inside(s):
     h = heights_from_pose(params, static_pose(params, wrench * s[:, None]))
@@ -212,8 +232,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
     warnings.warn(f"slopes c_x={scene.params.slope_x}, c_y={scene.params.slope_y} give a height "
                   f"map of rank {quality.rank}: the sensors cannot see "
                   f"{'; '.join(quality.lost)}", stacklevel=2)
-  model = model_lib.build_spec(scene.params,
-                               hysteresis="spring_hysteresis" in scene.effects).compile()
+  model = scene.spec().compile()
   per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
   seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)
   threads = threads or min(os.cpu_count() or 1, scene.sessions)
@@ -257,18 +276,19 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
     parts = list(pool.map(run_session, range(scene.sessions)))
   seconds = time.perf_counter() - t0
   pose = np.concatenate([p[0] for p in parts])
-  height = heights_from_pose(scene.params, pose, finite_facets="ray_miss" in scene.effects)
-  lo, hi = WINDOW
+  height, counts = sense(scene, pose, scene.seed)
+  lo, hi = scene.sensor.window
   out = float(np.mean(np.any(~((height >= lo) & (height <= hi)), axis=1)))
-  bottomed = float(np.mean(np.any(heights_from_pose(scene.params, pose) <= 0.0, axis=1)))
+  # a missed facet is no contact: bottoming is judged on the unbounded facet planes
+  unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
+                                                                               pose)
+  bottomed = float(np.mean(np.any(unbounded <= 0.0, axis=1)))
   if bottomed > 0:
     warnings.warn(f"{bottomed:.1%} of frames drive a reflector into the PCB (the shell would "
                   f"hit the chassis, which is not simulated): lower force_range "
                   f"({scene.force_range} N) or torque_range ({scene.torque_range} N m)",
                   stacklevel=2)
-  return ShellRun(pose=pose, height=height,
-                  counts=photointerrupter.apply(height, scene.effects, scene.seed,
-                                                scene.sensor, FRAME_RATE, scene.unit_seed),
+  return ShellRun(pose=pose, height=height, counts=counts,
                   wrench=np.concatenate([p[1] for p in parts]),
                   applied=np.concatenate([p[2] for p in parts]),
                   session=np.concatenate([np.full(len(p[0]), i, np.int32)

@@ -135,17 +135,22 @@ def ray_heights(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams)
   return out
 
 
+def rays_at(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams,
+            pose: np.ndarray) -> np.ndarray:
+  """(8,) `ray_heights` with the mount joints at `pose` (6,) and every other joint at 0."""
+  data.qpos[:] = 0
+  data.qpos[shell_model.mount_qpos_index(model)] = pose
+  mujoco.mj_kinematics(model, data)
+  return ray_heights(model, data, params)
+
+
 def ray_jacobian(params: ShellParams, step: float = 1e-6) -> np.ndarray:
   """(8, 6) d(ray heights)/d(pose about the reflector plane's centre) of the MuJoCo model."""
   model = shell_model.build_spec(params).compile()
   data = mujoco.MjData(model)
-  adr = shell_model.mount_qpos_index(model)
 
   def rays(q):
-    data.qpos[:] = 0
-    data.qpos[adr] = q
-    mujoco.mj_kinematics(model, data)
-    return ray_heights(model, data, params)
+    return rays_at(model, data, params, q)
   jac = np.stack([(rays(step * e) - rays(-step * e)) / (2 * step) for e in np.eye(6)], axis=1)
   # a turn theta about the elastic centre, dz below the plane, moves the plane's centre by
   # (theta_y dz, -theta_x dz, 0)

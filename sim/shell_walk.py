@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from models import shell as model_lib
-from sim import photointerrupter, shell
+from sim import shell
 
 WALLS = ("none", "head_on", "corner")
 
@@ -26,7 +26,7 @@ class Walk:
   """One walking episode.
 
   Attributes:
-    params: the shell.
+    board: the shell, its sensors and their effects (a calibration's `ShellScene`).
     wall: "none", "head_on" (a wall square across the path) or "corner" (a wall turned
       45 degrees so the shell's front-left corner meets it first).
     stride_hz: stride frequency, Hz (paper: 2 Hz).
@@ -35,11 +35,9 @@ class Walk:
     speed: free walking speed, m/s (assumed 0.15); sets the legs' ground drag thrust/speed.
     distance: free path before the wall, m.
     duration: s.
-    effects: `SHELL_EFFECTS` of the sensor chain (and `spring_hysteresis`).
-    unit_seed: the board (see `sim.shell.ShellScene`).
     seed: for the sensor chain's noise.
   """
-  params: model_lib.ShellParams = model_lib.ShellParams()
+  board: shell.ShellScene = shell.ShellScene()
   wall: str = "head_on"
   stride_hz: float = 2.0
   bob: float = 0.001
@@ -47,12 +45,10 @@ class Walk:
   speed: float = 0.15
   distance: float = 0.3
   duration: float = 5.0
-  effects: tuple[str, ...] = shell.ShellScene.effects
-  unit_seed: int = 0
   seed: int = 0
 
   def validate(self) -> None:
-    self.params.validate()
+    self.board.params.validate()
     if self.wall not in WALLS:
       raise ValueError(f"wall={self.wall!r} is unknown: allowed {', '.join(WALLS)}")
     for name, lo, hi in (("stride_hz", 0.1, 20), ("bob", 0, 0.005), ("thrust", 0, 5),
@@ -80,12 +76,12 @@ class WalkRun:
 
 
 def _model(walk: Walk) -> mujoco.MjModel:
-  spec = model_lib.build_spec(walk.params, base="planar", contacts=True,
-                              hysteresis="spring_hysteresis" in walk.effects)
+  params = walk.board.params
+  spec = walk.board.spec(base="planar", contacts=True)
   world = spec.worldbody
   if walk.wall != "none":
     # the wall's face sits `distance` ahead of the shell's front edge
-    front = 0.056
+    front = model_lib.SHELL_HALF[0]
     yaw = 0.0 if walk.wall == "head_on" else math.radians(45)  # its left end comes first
     face = front + walk.distance
     centre = np.array([face + 0.01 * math.cos(yaw), 0.01 * math.sin(yaw), 0.02])
@@ -104,7 +100,7 @@ def _model(walk: Walk) -> mujoco.MjModel:
                           gear=[1, 0, 0, 0, 0, 0])
   act.ctrlrange = [0, walk.thrust]
   act.ctrllimited = 1
-  mass = walk.params.chassis_mass + walk.params.shell_mass + walk.params.reflector_mass
+  mass = params.chassis_mass + params.shell_mass + params.reflector_mass
   kp = mass * (2 * math.pi * 10 * walk.stride_hz) ** 2  # a servo 10x faster than the stride
   bob = spec.add_actuator(name="bob", trntype=mujoco.mjtTrn.mjTRN_JOINT, target="chassis_z")
   bob.set_to_position(kp=kp, kv=2 * math.sqrt(kp * mass))
@@ -117,11 +113,11 @@ def simulate(walk: Walk) -> WalkRun:
   model = _model(walk)
   data = mujoco.MjData(model)
   dt = model.opt.timestep
-  spf = int(round(1 / (shell.FRAME_RATE * dt)))
+  spf = shell.frame_steps(dt)
   adr = model_lib.mount_qpos_index(model)
   shell_geom = model.geom("shell").id
   chassis_q = [model.joint(f"chassis_{n}").qposadr[0] for n in ("x", "y", "z", "yaw")]
-  centre = model_lib.elastic_centre(walk.params)
+  centre = model_lib.elastic_centre(walk.board.params)
   weight = -model.opt.gravity[2] * float(np.sum(model.body_mass))
   steps = int(round(walk.duration / dt))
   poses, contact, base = [], [], []
@@ -153,7 +149,6 @@ def simulate(walk: Walk) -> WalkRun:
     contact.append(total)
     base.append(data.qpos[chassis_q].copy())
   pose = np.array(poses)
-  counts = photointerrupter.apply(shell.heights_from_pose(walk.params, pose), walk.effects,
-                                  walk.seed, unit_seed=walk.unit_seed)
+  _, counts = shell.sense(walk.board, pose, walk.seed)
   return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts,
                  contact=np.array(contact), pose=np.array(base))

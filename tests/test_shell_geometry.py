@@ -20,10 +20,7 @@ def rig():
 
 
 def _rays_at(model, data, q):
-  data.qpos[:] = 0
-  data.qpos[shell.mount_qpos_index(model)] = q
-  mujoco.mj_kinematics(model, data)
-  return geo.ray_heights(model, data, P)
+  return geo.rays_at(model, data, P, q)
 
 
 def test_ray_heights_equal_closed_form(rig):
