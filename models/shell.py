@@ -21,8 +21,6 @@ import math
 import mujoco
 import numpy as np
 
-AXES = ("x", "y", "z")
-
 
 @dataclasses.dataclass(frozen=True)
 class ShellParams:
@@ -217,9 +215,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
   Args:
     params: the shell's parameters.
     base: "ft" welds the chassis to the world through the F/T body (calibration, gravity
-      tests); "free" gives the chassis a free joint and no F/T body (the robot on its own);
-      "planar" gives it slides `chassis_x`, `chassis_y`, `chassis_z` and a yaw hinge
-      `chassis_yaw` for scripted gaits (walking into walls).
+      tests); "free" gives the chassis a free joint `chassis_free` and no F/T body (the
+      robot on its own: dropped masses, walking).
     contacts: the chassis and shell collide with other bodies (the floor, a dropped mass),
       never with each other; off, nothing collides.
     hysteresis: Coulomb friction `mount_friction` on the mount joints (`spring_hysteresis`).
@@ -231,8 +228,8 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
   shell at the design gap under gravity.
   """
   params.validate()
-  if base not in ("ft", "free", "planar"):
-    raise ValueError(f"base={base!r} is unknown: allowed 'ft', 'free', 'planar'")
+  if base not in ("ft", "free"):
+    raise ValueError(f"base={base!r} is unknown: allowed 'ft', 'free'")
   collide = dict(contype=1, conaffinity=1) if contacts else dict(contype=0, conaffinity=0)
   spec = mujoco.MjSpec()
   spec.modelname = "shell"
@@ -247,13 +244,7 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
     chassis = ft.add_body(name="chassis", pos=[0, 0, 0])
   else:
     chassis = world.add_body(name="chassis", pos=[0, 0, 0])
-    if base == "free":
-      chassis.add_freejoint(name="chassis_free")
-    else:
-      for i, a in enumerate(AXES):
-        chassis.add_joint(name=f"chassis_{a}", type=mujoco.mjtJoint.mjJNT_SLIDE,
-                          axis=np.eye(3)[i])
-      chassis.add_joint(name="chassis_yaw", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+    chassis.add_freejoint(name="chassis_free")
   chassis.add_site(name="ft", pos=list(FT_SITE))
   chassis.add_geom(name="chassis", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(CHASSIS_HALF),
                    pos=[0, 0, CHASSIS_Z], mass=params.chassis_mass, rgba=[0.2, 0.2, 0.25, 1],

@@ -1,10 +1,16 @@
 """The robot walking into obstacles with its force-sensing shell (paper Sec. III-D, Fig. 11).
 
-The chassis moves in the plane (slides x, y, a yaw hinge) pushed by a force-limited thrust
-along its heading against the legs' ground drag, and bobs vertically at the stride frequency
-on a stiff servo; the shell rides on its springs and meets walls with its overhanging edge.
-The paper's numbers set the scene: a 2 Hz stride, and a thrust of at most mu_s x weight =
-0.7 x 0.7 N ~ 0.49 N on corkboard. Walking speed and bob amplitude are assumed.
+A free chassis on six legs, crank-driven in an alternating tripod (left front, right middle,
+left rear against the other three), walks on a floor with the paper's friction; the shell
+rides on its springs and meets walls with its overhanging edge. Nothing is scripted beyond
+the legs' crank angles: the thrust is what the feet's friction gives (at most mu_s x weight,
+the paper's ~0.5 N), the bob and the touchdown jolts that shake the shell come from the legs
+rolling over and handing over the body, and the turn after a corner hit from the contacts.
+
+Legs are straight spokes of length `leg_length` on a Buehler clock, as in RHex: each tripod
+sweeps its stance arc (-sweep .. +sweep about straight down) in half a stride, then
+recirculates over the top in the other half, so one tripod always stands. Spokes stand in
+for the VelociRoACH's crank-and-linkage legs, whose geometry the shell paper does not give.
 """
 
 from __future__ import annotations
@@ -18,32 +24,59 @@ import numpy as np
 from models import shell as model_lib
 from sim import shell
 
-WALLS = ("none", "head_on", "corner")
+WALLS = ("none", "head_on", "course")
+# hips along x, m (assumed: front and rear legs near the 10 cm body's ends, the wheelbase
+# that keeps the front feet down while the shell's edge is pushed, 40 mm up)
+_HIP_X = (0.04, 0.0, -0.04)
+_LEG_RADIUS = 0.001  # m, foot and spoke radius (assumed)
+_GROUND, _FEET = 1 << 1, 1 << 2  # contact bits: feet touch only the floor
 
 
 @dataclasses.dataclass(frozen=True)
 class Walk:
-  """One walking episode.
+  """One walking episode: at rest, then walking straight ahead into the walls.
 
   Attributes:
     board: the shell, its sensors and their effects (a calibration's `ShellScene`).
-    wall: "none", "head_on" (a wall square across the path) or "corner" (a wall turned
-      45 degrees so the shell's front-left corner meets it first).
+    wall: "none"; "head_on", a wall square across the path; or "course", the paper's
+      Fig. 11: a wall on the left closing in at `approach` that the shell's front-left
+      corner meets first, then, `follow` along it, a wall perpendicular to it.
     stride_hz: stride frequency, Hz (paper: 2 Hz).
-    bob: vertical amplitude of the chassis at the stride frequency, m (assumed 1 mm).
-    thrust: largest propulsive force, N (paper: mu_s 0.7 x 0.7 N ~ 0.49 N).
-    speed: free walking speed, m/s (assumed 0.15); sets the legs' ground drag thrust/speed.
-    distance: free path before the wall, m.
+    weight: the robot's weight, N (paper Sec. III-D: "the 0.7 N robot", from which it
+      derives the 0.5 N thrust; its Sec. II gives 30 g of robot and 18.7 g of sensing
+      hardware, 0.48 N); the chassis takes what the shell, reflector and legs leave of it.
+    friction: foot-floor friction coefficient (paper: mu_s = 0.7 on corkboard).
+    leg_length: hip to foot centre, m (assumed 15 mm: the PCB stands 22 mm and the chassis
+      8 mm above the floor. At 20 mm the wall's push on the shell's edge, 40 mm up, lifts the
+      front legs and the robot rears onto its chassis nose, measured here).
+    sweep: half the stance arc, rad (assumed 30 degrees: the body bobs by
+      leg_length (1 - cos sweep) = 2 mm and walks 2 leg_length sin sweep per step).
+    leg_mass: each leg, kg (assumed 0.5 g).
+    crank_inertia: rotor inertia reflected to each hip through its gearbox, kg m^2 (assumed:
+      a 1e-8 kg m^2 rotor through a ~30:1 train); it also keeps the stiff crank servo stable
+      at the model's 1 ms step.
+    rest: time standing still before the legs start, s (the paper's section [I]).
+    distance: free path before the first wall, m.
+    approach: angle between the path and the course's left wall, rad (assumed 20 degrees:
+      a glancing hit, after which the paper's robot turns right and follows the wall on its
+      left, Sec. III-D).
+    follow: length of the course's left wall from the first hit to the end wall, m.
     duration: s.
     seed: for the sensor chain's noise.
   """
   board: shell.ShellScene = shell.ShellScene()
   wall: str = "head_on"
   stride_hz: float = 2.0
-  bob: float = 0.001
-  thrust: float = 0.49
-  speed: float = 0.15
-  distance: float = 0.3
+  weight: float = 0.7
+  friction: float = 0.7
+  leg_length: float = 0.015
+  sweep: float = math.radians(30)
+  leg_mass: float = 0.0005
+  crank_inertia: float = 1e-5
+  rest: float = 0.5
+  distance: float = 0.1
+  approach: float = math.radians(20)
+  follow: float = 0.12
   duration: float = 5.0
   seed: int = 0
 
@@ -51,11 +84,18 @@ class Walk:
     self.board.params.validate()
     if self.wall not in WALLS:
       raise ValueError(f"wall={self.wall!r} is unknown: allowed {', '.join(WALLS)}")
-    for name, lo, hi in (("stride_hz", 0.1, 20), ("bob", 0, 0.005), ("thrust", 0, 5),
-                         ("speed", 0.01, 2), ("distance", 0, 5), ("duration", 0.1, 60)):
+    for name, lo, hi in (("stride_hz", 0.1, 10), ("weight", 0.1, 5), ("friction", 0, 2),
+                         ("leg_length", 0.01, 0.05), ("sweep", 0.05, 1.2),
+                         ("leg_mass", 1e-5, 0.01), ("crank_inertia", 1e-7, 1e-3),
+                         ("rest", 0, 10), ("distance", 0, 5), ("approach", 0.1, 1.2),
+                         ("follow", 0.02, 5), ("duration", 0.1, 60)):
       v = getattr(self, name)
       if not lo <= v <= hi:
         raise ValueError(f"{name}={v!r} is out of range: allowed [{lo}, {hi}]")
+    legs = 6 * self.leg_mass + self.board.params.shell_mass + self.board.params.reflector_mass
+    if self.weight / 9.81 <= legs:
+      raise ValueError(f"weight={self.weight!r} N leaves no mass for the chassis: allowed "
+                       f"> {legs * 9.81:.3f} N (legs, shell and reflector)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,88 +107,147 @@ class WalkRun:
     counts: (F, 8) photointerrupter counts.
     contact: (F, 6) force (N) and torque about the elastic centre (N m) that obstacles apply
       to the shell, in the chassis frame: the truth the shell should read.
-    pose: (F, 4) chassis x, y (m), z (m) and yaw (rad).
+    feet: (F, 3) the floor's friction and normal force on all six feet, world frame, N.
+    mount: (F, 6) the mount joints (m, rad), from which the shell's counts are read.
+    touching: (F,) bit k set while wall k touches the shell (course: 0 the side wall, 1 the
+      end wall).
+    pose: (F, 4) chassis x, y, z (m) and yaw (rad).
+    crank: (F, 2) crank angle of each tripod, rad (the paper's "leg position").
   """
   time: np.ndarray
   counts: np.ndarray
   contact: np.ndarray
+  feet: np.ndarray
+  mount: np.ndarray
+  touching: np.ndarray
   pose: np.ndarray
+  crank: np.ndarray
 
 
-def _model(walk: Walk) -> mujoco.MjModel:
+def crank_angle(walk: Walk, t: np.ndarray | float) -> np.ndarray:
+  """(..., 2) Buehler-clock crank angle of tripods 0 and 1 at time t (s), rad from straight
+  down, growing as the foot moves back: a slow stance sweep over half a stride, a fast
+  recirculation over the other. Tripod 1 runs half a stride behind; both stand at rest."""
+  phase = np.maximum(np.asarray(t, dtype=float) - walk.rest, 0.0) * walk.stride_hz
+  out = []
+  for offset in (0.0, 0.5):
+    p = phase + offset
+    turns, frac = np.floor(p), p - np.floor(p)
+    stance = -walk.sweep + 4 * walk.sweep * frac
+    swing = walk.sweep + (2 * math.pi - 2 * walk.sweep) * (2 * frac - 1)
+    out.append(2 * math.pi * turns + np.where(frac < 0.5, stance, swing))
+  return np.stack(out, axis=-1)
+
+
+def _model(walk: Walk) -> tuple[mujoco.MjModel, np.ndarray]:
+  """The robot on its legs and the walls; and (6,) the tripod of each crank actuator."""
   params = walk.board.params
-  spec = walk.board.spec(base="planar", contacts=True)
+  spec = walk.board.spec(base="free", contacts=True)
   world = spec.worldbody
-  if walk.wall != "none":
-    # the wall's face sits `distance` ahead of the shell's front edge
-    front = model_lib.SHELL_HALF[0]
-    yaw = 0.0 if walk.wall == "head_on" else math.radians(45)  # its left end comes first
-    face = front + walk.distance
-    centre = np.array([face + 0.01 * math.cos(yaw), 0.01 * math.sin(yaw), 0.02])
-    world.add_geom(name="wall", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.01, 0.3, 0.05],
-                   pos=centre.tolist(), euler=[0, 0, math.degrees(yaw)],  # MjSpec: degrees
-                   friction=[0.3, 0.005, 1e-4])
-  drag = walk.thrust / walk.speed
-  for j in spec.joints:
-    if j.name in ("chassis_x", "chassis_y"):
-      j.damping = [drag, 0, 0]
-    elif j.name == "chassis_yaw":
-      j.damping = [drag * 0.03**2, 0, 0]  # legs resist turning about a 3 cm footprint
+  world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.01],
+                 friction=[walk.friction, 0.005, 1e-4], contype=1 | _GROUND,
+                 conaffinity=1 | _GROUND)
+  front = np.array(model_lib.SHELL_HALF[:2])  # the shell's front-left corner at rest
+  walls = []  # (a point of the face, its unit normal away from the robot)
+  if walk.wall == "head_on":
+    walls.append((np.array([front[0] + walk.distance, 0.25]), np.array([1.0, 0.0])))
+  elif walk.wall == "course":
+    a = walk.approach
+    hit = front + [walk.distance, 0.0]
+    along = np.array([math.cos(a), -math.sin(a)])
+    normal = np.array([math.sin(a), math.cos(a)])
+    walls.append((hit - 0.05 * along, normal))  # starts just behind the first hit
+    walls.append((hit + walk.follow * along, along))
+  half = (0.01, 0.3, 0.05)  # m: thickness, length (from the face point on), height
+  for k, (point, normal) in enumerate(walls):
+    run = np.array([normal[1], -normal[0]])  # along the face, to the robot's right
+    centre = point + half[0] * normal + (half[1] - half[0]) * run
+    world.add_geom(name=f"wall{k}", type=mujoco.mjtGeom.mjGEOM_BOX, size=list(half),
+                   pos=[*centre, half[2]], friction=[0.3, 0.005, 1e-4],
+                   euler=[0, 0, math.degrees(math.atan2(normal[1], normal[0]))])  # degrees
   chassis = spec.body("chassis")
-  chassis.add_site(name="thrust", pos=[0, 0, -0.008])
-  act = spec.add_actuator(name="thrust", trntype=mujoco.mjtTrn.mjTRN_SITE, target="thrust",
-                          gear=[1, 0, 0, 0, 0, 0])
-  act.ctrlrange = [0, walk.thrust]
-  act.ctrllimited = 1
-  mass = params.chassis_mass + params.shell_mass + params.reflector_mass
-  kp = mass * (2 * math.pi * 10 * walk.stride_hz) ** 2  # a servo 10x faster than the stride
-  bob = spec.add_actuator(name="bob", trntype=mujoco.mjtTrn.mjTRN_JOINT, target="chassis_z")
-  bob.set_to_position(kp=kp, kv=2 * math.sqrt(kp * mass))
-  return spec.compile()
+  tripods = []
+  hip_z = model_lib.CHASSIS_Z
+  hip_y = model_lib.CHASSIS_HALF[1] + 2 * _LEG_RADIUS
+  for side, y in (("left", hip_y), ("right", -hip_y)):
+    for i, x in enumerate(_HIP_X):
+      tripod = (i + (side == "right")) % 2
+      leg = chassis.add_body(name=f"leg_{side}{i}", pos=[x, y, hip_z])
+      leg.add_joint(name=f"hip_{side}{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
+                    armature=walk.crank_inertia)
+      leg.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, 0, 0, -walk.leg_length],
+                   size=[_LEG_RADIUS, 0, 0], mass=walk.leg_mass, contype=_FEET,
+                   conaffinity=_GROUND, friction=[walk.friction, 0.005, 1e-4],
+                   rgba=[0.2, 0.2, 0.2, 1])
+      crank = spec.add_actuator(name=f"crank_{side}{i}", trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                                target=f"hip_{side}{i}")
+      # stiff enough to hold the body's share within ~1 degree, the crank is kinematic
+      kp = 50 * walk.weight * walk.leg_length
+      crank.set_to_position(kp=kp, kv=2 * math.sqrt(kp * walk.crank_inertia))
+      tripods.append(tripod)
+  rest_mass = walk.weight / 9.81 - 6 * walk.leg_mass - params.shell_mass - params.reflector_mass
+  for g in spec.geoms:
+    if g.name == "chassis":
+      g.mass = rest_mass
+  return spec.compile(), np.array(tripods)
 
 
 def simulate(walk: Walk) -> WalkRun:
   """Runs the episode; frames every 10 ms."""
   walk.validate()
-  model = _model(walk)
+  model, tripod = _model(walk)
   data = mujoco.MjData(model)
   dt = model.opt.timestep
   spf = shell.frame_steps(dt)
   adr = model_lib.mount_qpos_index(model)
   shell_geom = model.geom("shell").id
-  chassis_q = [model.joint(f"chassis_{n}").qposadr[0] for n in ("x", "y", "z", "yaw")]
+  floor = model.geom("floor").id
+  free = model.joint("chassis_free").qposadr[0]
+  start = crank_angle(walk, 0.0)
+  # stand on tripod 0 at -sweep and tripod 1 at +sweep, feet on the floor
+  data.qpos[free + 2] = (walk.leg_length * math.cos(walk.sweep) + _LEG_RADIUS
+                         - model_lib.CHASSIS_Z)
+  for a in range(model.nu):
+    data.qpos[model.jnt_qposadr[model.actuator_trnid[a, 0]]] = start[tripod[a]]
   centre = model_lib.elastic_centre(walk.board.params)
-  weight = -model.opt.gravity[2] * float(np.sum(model.body_mass))
   steps = int(round(walk.duration / dt))
-  poses, contact, base = [], [], []
+  poses, contact, feet, base, cranks, touching = [], [], [], [], [], []
+  wall_bit = {g: 1 << int(model.geom(g).name[4:]) for g in range(model.ngeom)
+              if model.geom(g).name.startswith("wall")}
   force6 = np.zeros(6)
   for i in range(steps):
-    t = i * dt
-    data.ctrl[0] = walk.thrust
-    # the servo holds the weight and bobs at the stride frequency
-    data.ctrl[1] = (walk.bob * math.sin(2 * math.pi * walk.stride_hz * t)
-                    + weight / model.actuator_gainprm[1, 0])
+    angles = crank_angle(walk, (i + 1) * dt)
+    data.ctrl[:] = angles[tripod]
     mujoco.mj_step(model, data)
     if i % spf != spf - 1:
       continue
-    total = np.zeros(6)
+    total, foot, touch = np.zeros(6), np.zeros(3), 0
     rot = data.body("chassis").xmat.reshape(3, 3)
     ec = data.body("chassis").xpos + rot @ centre
     for c in range(data.ncon):
       con = data.contact[c]
-      if shell_geom not in (con.geom1, con.geom2):
-        continue
       mujoco.mj_contactForce(model, data, c, force6)
-      frame = con.frame.reshape(3, 3)
-      f_world = frame.T @ force6[:3]
       # the contact force acts on geom2 along +normal; on geom1 the opposite
-      f_on_shell = f_world if con.geom2 == shell_geom else -f_world
-      total[:3] += rot.T @ f_on_shell
-      total[3:] += rot.T @ np.cross(con.pos - ec, f_on_shell)
+      f_world = con.frame.reshape(3, 3).T @ force6[:3]
+      if shell_geom in (con.geom1, con.geom2):
+        f_on_shell = f_world if con.geom2 == shell_geom else -f_world
+        total[:3] += rot.T @ f_on_shell
+        total[3:] += rot.T @ np.cross(con.pos - ec, f_on_shell)
+        touch |= wall_bit.get(con.geom1, 0) | wall_bit.get(con.geom2, 0)
+      elif floor in (con.geom1, con.geom2) and model.geom_contype[
+          con.geom2 if con.geom1 == floor else con.geom1] == _FEET:
+        foot += f_world if con.geom1 == floor else -f_world
     poses.append(data.qpos[adr].copy())
     contact.append(total)
-    base.append(data.qpos[chassis_q].copy())
+    feet.append(foot)
+    touching.append(touch)
+    q = data.qpos[free + 3:free + 7]
+    yaw = math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2))
+    base.append([*data.qpos[free:free + 3], yaw])
+    cranks.append(angles)
   pose = np.array(poses)
   _, counts = shell.sense(walk.board, pose, walk.seed)
   return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts,
-                 contact=np.array(contact), pose=np.array(base))
+                 contact=np.array(contact), feet=np.array(feet), mount=pose,
+                 touching=np.array(touching), pose=np.array(base),
+                 crank=np.array(cranks))
