@@ -20,7 +20,6 @@ from typing import Callable, Optional
 import mujoco
 import mujoco.rollout
 import numpy as np
-import scipy.interpolate
 
 from models import shell as model_lib
 from sim import photointerrupter, recording, shell_geometry
@@ -120,8 +119,12 @@ def sense(scene: ShellScene, pose: np.ndarray, seed: int) -> tuple[np.ndarray, n
 def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.ndarray:
   """(steps, 6) smooth random wrench (N, N m) about the F/T site, one per physics step.
 
-  Random targets every knot_interval, uniform in each axis's range, joined by a cubic
-  spline with zero slope at rest at both ends.
+  Random targets every knot_interval, uniform in each axis's range, the first and last at
+  rest. The hand moves from one target to the next along a quintic smoothstep (zero rate
+  and acceleration at each target), the same blend for all six axes: every load on the way
+  is a convex combination of two targets, so with `in_window` no static pose between them
+  leaves the window either (heights are linear in small loads). A spline through the
+  targets would overshoot them: measured, 7 % of frames then clip the ADC below 1.9 mm.
   """
   if scene.loading == "rest":
     return np.zeros((steps, 6))
@@ -136,9 +139,11 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   knots[0] = knots[-1] = 0.0
   if scene.in_window:
     knots *= _window_scale(scene.params, knots, scene.sensor.window)[:, None]
-  t_knots = np.linspace(0.0, steps * dt, n_knots)
-  spline = scipy.interpolate.CubicSpline(t_knots, knots, bc_type="clamped")
-  return spline(np.arange(steps) * dt)
+  u = np.arange(steps) * dt / (steps * dt) * (n_knots - 1)  # in knot intervals
+  i = np.minimum(u.astype(int), n_knots - 2)
+  tau = u - i
+  blend = tau**3 * (10 - 15 * tau + 6 * tau**2)
+  return knots[i] + (knots[i + 1] - knots[i]) * blend[:, None]
 
 
 def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray:
