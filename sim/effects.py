@@ -100,8 +100,12 @@ SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "Stray infrared light reaching the detectors through the open shell: an offset "
            "wandering as an Ornstein-Uhlenbeck process, shared by all sensors (room light) plus "
            "a per-sensor part, each Photointerrupter.stray_ir = 20 counts rms with a "
-           "stray_ir_time = 5 s correlation time. Assumed; the paper names stray IR as a "
-           "problem for new shells to shield against (Sec. IV) without a size."),
+           "stray_ir_time = 5 s correlation time. Size from the paper: its Table II standard "
+           "deviations at rest are, through this model's calibration, 3-21 counts of white "
+           "noise per sensor or 7 counts common to all (`shell_table2` prints it), far above "
+           "the 1 count of a static sensor on the bench (Sec. II-B); it zeroes 'a small "
+           "constant offset' by averaging (Sec. III-A) and names stray IR for new shells to "
+           "shield against (Sec. IV). The correlation time is assumed."),
     Effect("spring_hysteresis", Kind.MODEL,
            "Coulomb friction in the mount (spring seats, shell fixings): frictionloss on the "
            "mount joints of ShellParams.mount_friction = 10 mN and 0.6 mN m, 1 % of the hand "
