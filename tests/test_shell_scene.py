@@ -157,3 +157,20 @@ def test_spring_hysteresis_opens_a_loop_of_twice_the_friction():
   width = abs(up - down)
   expected = 2 * p.mount_friction[0] / model_lib.mount_stiffness(p)[2]
   assert width == pytest.approx(expected, rel=0.15)
+
+
+def test_cubic_calibration_is_exact_on_noiseless_in_window_counts():
+  """The paper's cubic pseudoinverse (Eqns 4-9) on the scene's own noiseless counts: a wrench
+  that is an exact cubic of them is recovered to 1e-8."""
+  from calibrate import estimators
+  r = shell.simulate(dataclasses.replace(SMALL, effects=()))
+  lo, hi = SMALL.sensor.window
+  counts = r.counts[np.all((r.height >= lo) & (r.height <= hi), axis=1)]
+  assert len(counts) > 1000
+  rng = np.random.default_rng(7)
+  x = (counts - 2900.0) / 1000.0  # counts scaled to ~[-1, 1] to draw the known cubic
+  wrench = (x @ rng.normal(size=(8, 6)) + x**2 @ rng.normal(size=(8, 6)) * 0.3
+            + x**3 @ rng.normal(size=(8, 6)) * 0.1 + rng.normal(size=6))
+  est = estimators.fit(estimators.Kind.POLY, counts, wrench)
+  err = np.max(np.abs(est.predict(counts) - wrench)) / np.max(np.abs(wrench))
+  assert err < 1e-8, err
