@@ -63,10 +63,9 @@ def run(ctx) -> dict:
   walk = shell_walk.Walk(board=cal.board, wall="course", duration=DURATION, seed=ctx.seed)
   r = shell_walk.simulate(walk)
   f = cal.estimator.predict(r.counts)
-  stiffness = model_lib.mount_stiffness(walk.board.params)
-  spring = stiffness * (r.mount - r.mount[phases(r, walk)["rest"]].mean(axis=0))
   m = phases(r, walk)
-  if not m["corner"].any() or not m["pushing"].any():
+  spring = model_lib.mount_stiffness(walk.board.params) * (r.mount - r.mount[m["rest"]].mean(0))
+  if not (m["corner"].any() and m["along"].any() and m["pushing"].any()):
     raise RuntimeError("the robot did not reach both walls: lengthen DURATION or check the "
                        "walk's speed")
   yaw = np.degrees(r.pose[:, 3])
@@ -78,8 +77,7 @@ def run(ctx) -> dict:
       "walking_speed": float(np.ptp(r.pose[m["walking"], 0]) / np.ptp(r.time[m["walking"]])),
       "corner_min": f[m["corner"], :3].min(axis=0).tolist(),
       "corner_contact_min": r.contact[m["corner"], :3].min(axis=0).tolist(),
-      "turn_deg": float(yaw[m["along"]][-1] - yaw[m["corner"]][0]) if m["along"].any()
-      else float(yaw[m["end_wall"]][0] - yaw[m["corner"]][0]),
+      "turn_deg": float(yaw[m["along"]][-1] - yaw[m["corner"]][0]),
       "along_mean": f[m["along"], :3].mean(axis=0).tolist(),
       "along_contact_mean": r.contact[m["along"], :3].mean(axis=0).tolist(),
       "end_wall_min": f[m["end_wall"], :3].min(axis=0).tolist(),

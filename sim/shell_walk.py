@@ -185,10 +185,9 @@ def _model(walk: Walk) -> tuple[mujoco.MjModel, np.ndarray]:
       kp = 50 * walk.weight * walk.leg_length
       crank.set_to_position(kp=kp, kv=2 * math.sqrt(kp * walk.crank_inertia))
       tripods.append(tripod)
-  rest_mass = walk.weight / 9.81 - 6 * walk.leg_mass - params.shell_mass - params.reflector_mass
-  for g in spec.geoms:
-    if g.name == "chassis":
-      g.mass = rest_mass
+  g = -spec.option.gravity[2]
+  spec.geom("chassis").mass = (walk.weight / g - 6 * walk.leg_mass - params.shell_mass
+                               - params.reflector_mass)
   return spec.compile(), np.array(tripods)
 
 
