@@ -94,8 +94,10 @@ SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
     Effect("unit_spread", Kind.SIGNAL,
            "Unit-to-unit spread of the photointerrupters: each sensor's 1/r coefficient a x "
            "N(1, Photointerrupter.gain_spread = 0.15) and offset b + N(0, offset_spread = 30 "
-           "counts). Assumed: the paper fits a and b per sensor (Eqns 1-2) because units "
-           "differ, but gives no spread."),
+           "counts). Assumed within wide limits: the paper fits a and b per sensor (Eqns "
+           "1-2) without giving their spread, and Sharp specifies its photointerrupters' "
+           "output only within a 10:1 window (GP1S24 datasheet: collector current 40-400 uA). "
+           "The calibration absorbs it: Table I medians move by 0.3 points at most."),
     Effect("stray_ir", Kind.SIGNAL,
            "Stray infrared light reaching the detectors through the open shell: an offset "
            "wandering as an Ornstein-Uhlenbeck process, shared by all sensors (room light) plus "
