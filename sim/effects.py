@@ -103,7 +103,7 @@ SHELL_EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "wandering as an Ornstein-Uhlenbeck process, shared by all sensors (room light) plus "
            "a per-sensor part, each Photointerrupter.stray_ir = 20 counts rms with a "
            "stray_ir_time = 5 s correlation time. Size from the paper: its Table II standard "
-           "deviations at rest are, through this model's calibration, 3-21 counts of white "
+           "deviations at rest are, through this model's calibration, 3-22 counts of white "
            "noise per sensor or 7 counts common to all (`shell_table2` prints it), far above "
            "the 1 count of a static sensor on the bench (Sec. II-B); it zeroes 'a small "
            "constant offset' by averaging (Sec. III-A) and names stray IR for new shells to "

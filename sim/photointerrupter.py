@@ -34,7 +34,7 @@ class Photointerrupter:
     window: (low, high) heights, m, where the 1/r law is fitted and trusted (2-4 mm).
     gain_spread, offset_spread: `unit_spread` effect: relative sd of a, sd of b (counts).
     stray_ir, stray_ir_time: `stray_ir` effect: rms offset (counts) of each of its two parts
-      and their correlation time (s). 20 counts: the top of the 3-21 counts per sensor that
+      and their correlation time (s). 20 counts: the top of the 3-22 counts per sensor that
       the paper's Table II resolutions amount to through the calibration (`shell_table2`);
       a 10 s rest sees less than the full rms of a 5 s process. The time is assumed.
   """
