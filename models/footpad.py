@@ -20,6 +20,8 @@ import math
 import mujoco
 import numpy as np
 
+from sim.settings import require
+
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
 AXES = ("x", "y", "z")
 
@@ -134,8 +136,7 @@ class FootpadParams:
   def validate(self) -> None:
     """Raise ValueError naming the first parameter outside its allowed range."""
     def need(ok: bool, name: str, allowed: str, value) -> None:
-      if not ok:
-        raise ValueError(f"footpad parameter {name}={value!r} is out of range: allowed {allowed}")
+      require(ok, f"footpad parameter {name}", allowed, value)
 
     need(len(self.grid) == 2 and all(int(g) == g and 2 <= g <= 20 for g in self.grid),
          "grid", "two integers in [2, 20]", self.grid)

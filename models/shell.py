@@ -21,6 +21,8 @@ import math
 import mujoco
 import numpy as np
 
+from sim.settings import require
+
 
 @dataclasses.dataclass(frozen=True)
 class ShellParams:
@@ -77,28 +79,25 @@ class ShellParams:
 
   def validate(self) -> None:
     """Raise ValueError naming the first parameter outside its allowed range."""
-    def need(ok, name, allowed, value):
-      if not ok:
-        raise ValueError(f"{name}={value!r} is out of range: allowed {allowed}")
     for name in ("slope_x", "slope_y"):
       v = getattr(self, name)
-      need(math.isfinite(v) and abs(v) <= 2.0, name, "[-2, 2] (rise over run)", v)
-    need(self.spring_rate > 0, "spring_rate", "> 0 N/m", self.spring_rate)
-    need(0.002 <= self.spring_height <= 0.1, "spring_height", "[0.002, 0.1] m",
-         self.spring_height)
-    need(0.001 <= self.spring_diameter <= 0.05, "spring_diameter", "[0.001, 0.05] m",
-         self.spring_diameter)
-    need(0 <= self.spring_poisson < 0.5, "spring_poisson", "[0, 0.5)", self.spring_poisson)
-    need(len(self.spring_xy) >= 3, "spring_xy", "at least 3 springs", self.spring_xy)
-    need(0.002 <= self.gap <= 0.004, "gap", "[0.002, 0.004] m, the sensor's fitted window",
-         self.gap)
-    need(0 <= self.damping_ratio <= 2, "damping_ratio", "[0, 2]", self.damping_ratio)
+      require(math.isfinite(v) and abs(v) <= 2.0, name, "[-2, 2] (rise over run)", v)
+    require(self.spring_rate > 0, "spring_rate", "> 0 N/m", self.spring_rate)
+    require(0.002 <= self.spring_height <= 0.1, "spring_height", "[0.002, 0.1] m",
+            self.spring_height)
+    require(0.001 <= self.spring_diameter <= 0.05, "spring_diameter", "[0.001, 0.05] m",
+            self.spring_diameter)
+    require(0 <= self.spring_poisson < 0.5, "spring_poisson", "[0, 0.5)", self.spring_poisson)
+    require(len(self.spring_xy) >= 3, "spring_xy", "at least 3 springs", self.spring_xy)
+    require(0.002 <= self.gap <= 0.004, "gap", "[0.002, 0.004] m, the sensor's fitted window",
+            self.gap)
+    require(0 <= self.damping_ratio <= 2, "damping_ratio", "[0, 2]", self.damping_ratio)
     for name in ("shell_mass", "reflector_mass", "chassis_mass"):
-      need(getattr(self, name) > 0, name, "> 0 kg", getattr(self, name))
-    need(0 <= self.payload <= 0.2, "payload", "[0, 0.2] kg", self.payload)
-    need(len(self.sensor_x) == 8 and len(self.sensor_y) == 8, "sensor_x/sensor_y",
-         "8 positions each (P1..P8)", (self.sensor_x, self.sensor_y))
-    need(0 < self.timestep <= 0.002, "timestep", "(0, 0.002] s", self.timestep)
+      require(getattr(self, name) > 0, name, "> 0 kg", getattr(self, name))
+    require(0 <= self.payload <= 0.2, "payload", "[0, 0.2] kg", self.payload)
+    require(len(self.sensor_x) == 8 and len(self.sensor_y) == 8, "sensor_x/sensor_y",
+            "8 positions each (P1..P8)", (self.sensor_x, self.sensor_y))
+    require(0 < self.timestep <= 0.002, "timestep", "(0, 0.002] s", self.timestep)
 
   def sensor_positions(self) -> np.ndarray:
     """(8, 3) sensor apertures in the chassis frame, m (z = 0: the PCB's top face)."""

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.signal
 
 from sim.effects import SHELL_EFFECTS, check_effects, rng_for
+from sim.settings import require
 
 # u = r / r_c at the maximum of (1 - exp(-u^2)) / u: 2 u^2 exp(-u^2) = 1 - exp(-u^2)
 _PEAK_U = 1.1209
@@ -50,12 +51,9 @@ class Photointerrupter:
 
   def validate(self) -> None:
     for name in ("gain_spread", "offset_spread", "stray_ir"):
-      if not 0 <= getattr(self, name) < 1e4:
-        raise ValueError(f"{name}={getattr(self, name)!r} is out of range: allowed [0, 1e4)")
-    if not self.stray_ir_time > 0:
-      raise ValueError(f"stray_ir_time={self.stray_ir_time!r} is out of range: allowed > 0 s")
-    if not self.a > 0:
-      raise ValueError(f"a={self.a!r} is out of range: allowed > 0 counts m")
+      require(0 <= getattr(self, name) < 1e4, name, "[0, 1e4)", getattr(self, name))
+    require(self.stray_ir_time > 0, "stray_ir_time", "> 0 s", self.stray_ir_time)
+    require(self.a > 0, "a", "> 0 counts m", self.a)
     if not 0 < self.peak < self.window[0] < self.window[1]:
       raise ValueError(f"need 0 < peak < window[0] < window[1], got {self.peak}, {self.window}")
 

@@ -10,6 +10,19 @@ import dataclasses
 import enum
 
 
+def require(ok: bool, name: str, allowed: str, value) -> None:
+  """Raise ValueError naming a setting whose value lies outside what is allowed."""
+  if not ok:
+    raise ValueError(f"{name}={value!r} is out of range: allowed {allowed}")
+
+
+def in_bounds(obj, bounds) -> None:
+  """`require` each (field name, low, high) of `bounds` on the dataclass `obj`, inclusive."""
+  for name, lo, hi in bounds:
+    v = getattr(obj, name)
+    require(lo <= v <= hi, name, f"[{lo}, {hi}]", v)
+
+
 def apply(obj, overrides: dict[str, str]):
   """A copy of the dataclass `obj` with the settings applied; unknown keys and unreadable
   values raise ValueError naming the key and what is allowed."""

@@ -24,6 +24,7 @@ import numpy as np
 from models import shell as model_lib
 from sim import photointerrupter, recording, shell_geometry
 from sim.effects import SHELL_EFFECTS, check_effects
+from sim.settings import require
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
 FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
@@ -78,20 +79,17 @@ class ShellScene:
     self.params.validate()
     self.sensor.validate()
     check_effects(self.effects, SHELL_EFFECTS)
-    checks = [
-        (1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames),
-        (1 <= self.steps_per_frame <= 100, "steps_per_frame", "[1, 100]", self.steps_per_frame),
-        (0 < self.force_range <= 5, "force_range", "(0, 5] N", self.force_range),
-        (0 < self.torque_range <= 0.3, "torque_range", "(0, 0.3] N m", self.torque_range),
-        (0.05 <= self.knot_interval <= 10, "knot_interval", "[0.05, 10] s", self.knot_interval),
-        (0 <= self.downward_bias <= 1, "downward_bias", "[0, 1]", self.downward_bias),
-        (1 <= self.sessions <= 64, "sessions", "[1, 64]", self.sessions),
-        (self.loading in ("hand", "rest"), "loading", "'hand' or 'rest'", self.loading),
-        (int(self.seed) == self.seed and self.seed >= 0, "seed", "integers >= 0", self.seed),
-    ]
-    for ok, name, allowed, value in checks:
-      if not ok:
-        raise ValueError(f"{name}={value!r} is out of range: allowed {allowed}")
+    require(1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames)
+    require(1 <= self.steps_per_frame <= 100, "steps_per_frame", "[1, 100]",
+            self.steps_per_frame)
+    require(0 < self.force_range <= 5, "force_range", "(0, 5] N", self.force_range)
+    require(0 < self.torque_range <= 0.3, "torque_range", "(0, 0.3] N m", self.torque_range)
+    require(0.05 <= self.knot_interval <= 10, "knot_interval", "[0.05, 10] s",
+            self.knot_interval)
+    require(0 <= self.downward_bias <= 1, "downward_bias", "[0, 1]", self.downward_bias)
+    require(1 <= self.sessions <= 64, "sessions", "[1, 64]", self.sessions)
+    require(self.loading in ("hand", "rest"), "loading", "'hand' or 'rest'", self.loading)
+    require(int(self.seed) == self.seed and self.seed >= 0, "seed", "integers >= 0", self.seed)
     dt = self.params.timestep * self.steps_per_frame
     if abs(dt * FRAME_RATE - 1) > 1e-9:
       raise ValueError(f"timestep x steps_per_frame = {dt} s: must be one 100 Hz frame")

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from models import shell as model_lib
-from sim import shell
+from sim import settings, shell
 
 WALLS = ("none", "head_on", "course")
 # hips along x, m (assumed: front and rear legs near the 10 cm body's ends, the wheelbase
@@ -84,14 +84,11 @@ class Walk:
     self.board.params.validate()
     if self.wall not in WALLS:
       raise ValueError(f"wall={self.wall!r} is unknown: allowed {', '.join(WALLS)}")
-    for name, lo, hi in (("stride_hz", 0.1, 10), ("weight", 0.1, 5), ("friction", 0, 2),
-                         ("leg_length", 0.01, 0.05), ("sweep", 0.05, 1.2),
-                         ("leg_mass", 1e-5, 0.01), ("crank_inertia", 1e-7, 1e-3),
-                         ("rest", 0, 10), ("distance", 0, 5), ("approach", 0.1, 1.2),
-                         ("follow", 0.02, 5), ("duration", 0.1, 60)):
-      v = getattr(self, name)
-      if not lo <= v <= hi:
-        raise ValueError(f"{name}={v!r} is out of range: allowed [{lo}, {hi}]")
+    settings.in_bounds(self, (("stride_hz", 0.1, 10), ("weight", 0.1, 5), ("friction", 0, 2),
+                              ("leg_length", 0.01, 0.05), ("sweep", 0.05, 1.2),
+                              ("leg_mass", 1e-5, 0.01), ("crank_inertia", 1e-7, 1e-3),
+                              ("rest", 0, 10), ("distance", 0, 5), ("approach", 0.1, 1.2),
+                              ("follow", 0.02, 5), ("duration", 0.1, 60)))
     legs = 6 * self.leg_mass + self.board.params.shell_mass + self.board.params.reflector_mass
     if self.weight / 9.81 <= legs:
       raise ValueError(f"weight={self.weight!r} N leaves no mass for the chassis: allowed "
