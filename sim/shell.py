@@ -28,7 +28,6 @@ from sim.settings import require
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
 FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
-WINDOW = photointerrupter.Photointerrupter().window
 
 Progress = Callable[[int, int], None]
 
@@ -136,7 +135,7 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   knots = rng.uniform(lo, hi, (n_knots, 6))
   knots[0] = knots[-1] = 0.0
   if scene.in_window:
-    knots *= _window_scale(scene.params, knots, scene.sensor.window)[:, None]
+    knots *= _window_scale(scene.params, knots, scene.sensor)[:, None]
   u = np.arange(steps) * dt / (steps * dt) * (n_knots - 1)  # in knot intervals
   i = np.minimum(u.astype(int), n_knots - 2)
   tau = u - i
@@ -154,14 +153,12 @@ def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray
 
 
 def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
-                  window: tuple[float, float] = WINDOW) -> np.ndarray:
-  """(K,) largest factor in [0, 1] keeping every static height inside the window, by
-  bisection (the heights are monotonic along a ray of small loads)."""
-  lo_h, hi_h = window
-
+                  sensor: photointerrupter.Photointerrupter) -> np.ndarray:
+  """(K,) largest factor in [0, 1] keeping every static height inside the sensor's window,
+  by bisection (the heights are monotonic along a ray of small loads)."""
   def inside(s):
     h = heights_from_pose(params, static_pose(params, wrench * s[:, None]))
-    return np.all((h >= lo_h) & (h <= hi_h), axis=1)
+    return np.all(sensor.in_window(h), axis=1)
   lo, hi = np.zeros(len(wrench)), np.ones(len(wrench))
   full = inside(hi)
   for _ in range(30):
@@ -207,10 +204,8 @@ def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray,
   """(..., 8) heights from mount joint positions (..., 6): the closed form of the joint chain
   (slides, then hinges about x, turned y, turned z through the elastic centre); with
   finite_facets, NaN where a sensor looks past its facet (`shell_geometry.heights`)."""
-  pose = np.asarray(pose, float)
-  return shell_geometry.heights(params, shell_geometry.rotation(pose[..., 3:]), pose[..., :3],
-                                centre=model_lib.elastic_centre(params),
-                                finite_facets=finite_facets)
+  return shell_geometry.pose_heights(params, pose, model_lib.elastic_centre(params),
+                                    finite_facets)
 
 
 def _xfrc(model: mujoco.MjModel, data: mujoco.MjData, wrench: np.ndarray) -> np.ndarray:
@@ -280,8 +275,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   seconds = time.perf_counter() - t0
   pose = np.concatenate([p[0] for p in parts])
   height, counts = sense(scene, pose, scene.seed)
-  lo, hi = scene.sensor.window
-  out = float(np.mean(np.any(~((height >= lo) & (height <= hi)), axis=1)))
+  out = float(np.mean(~np.all(scene.sensor.in_window(height), axis=1)))
   # a missed facet is no contact: bottoming is judged on the unbounded facet planes
   unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
                                                                                pose)

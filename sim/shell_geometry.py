@@ -67,11 +67,13 @@ def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
   return np.where(np.all(off <= params.reflector_size / 2, axis=-1), h, np.nan)
 
 
-def pose_heights(params: ShellParams, pose: np.ndarray) -> np.ndarray:
-  """(..., 8) heights for poses (..., 6) = (x, y, z, theta_x, theta_y, theta_z) about the
-  centre of the reflector plane."""
+def pose_heights(params: ShellParams, pose: np.ndarray, centre: np.ndarray | None = None,
+                 finite_facets: bool = False) -> np.ndarray:
+  """(..., 8) heights for poses (..., 6) = (x, y, z, then the `rotation` angles about x,
+  turned y, turned z) about `centre` (default the centre of the reflector plane); see
+  `heights`."""
   pose = np.asarray(pose, float)
-  return heights(params, rotation(pose[..., 3:]), pose[..., :3])
+  return heights(params, rotation(pose[..., 3:]), pose[..., :3], centre, finite_facets)
 
 
 def height_jacobian(params: ShellParams, step: float = 1e-7) -> np.ndarray:
@@ -119,7 +121,7 @@ def map_quality(jacobian: np.ndarray, length_scale: float = 0.025,
   return MapQuality(rank, cond, tuple(lost))
 
 
-def ray_heights(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams) -> np.ndarray:
+def ray_heights(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
   """(8,) heights by `mj_ray` from each sensor site straight up, seeing reflector geoms only
   (geom group `models.shell.REFLECTOR_GROUP`); NaN where a ray misses."""
   group = np.zeros(6, np.uint8)
@@ -135,13 +137,12 @@ def ray_heights(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams)
   return out
 
 
-def rays_at(model: mujoco.MjModel, data: mujoco.MjData, params: ShellParams,
-            pose: np.ndarray) -> np.ndarray:
+def rays_at(model: mujoco.MjModel, data: mujoco.MjData, pose: np.ndarray) -> np.ndarray:
   """(8,) `ray_heights` with the mount joints at `pose` (6,) and every other joint at 0."""
   data.qpos[:] = 0
   data.qpos[shell_model.mount_qpos_index(model)] = pose
   mujoco.mj_kinematics(model, data)
-  return ray_heights(model, data, params)
+  return ray_heights(model, data)
 
 
 def ray_jacobian(params: ShellParams, step: float = 1e-6) -> np.ndarray:
@@ -150,7 +151,7 @@ def ray_jacobian(params: ShellParams, step: float = 1e-6) -> np.ndarray:
   data = mujoco.MjData(model)
 
   def rays(q):
-    return rays_at(model, data, params, q)
+    return rays_at(model, data, q)
   jac = np.stack([(rays(step * e) - rays(-step * e)) / (2 * step) for e in np.eye(6)], axis=1)
   # a turn theta about the elastic centre, dz below the plane, moves the plane's centre by
   # (theta_y dz, -theta_x dz, 0)

@@ -19,10 +19,6 @@ def rig():
   return model, mujoco.MjData(model)
 
 
-def _rays_at(model, data, q):
-  return geo.rays_at(model, data, P, q)
-
-
 def test_ray_heights_equal_closed_form(rig):
   model, data = rig
   rng = np.random.default_rng(0)
@@ -31,9 +27,9 @@ def test_ray_heights_equal_closed_form(rig):
   for _ in range(20):
     q = np.concatenate([rng.uniform(-4e-4, 4e-4, 3), rng.uniform(-0.02, 0.02, 3)])
     if rest is None:
-      _rays_at(model, data, np.zeros(6))
+      geo.rays_at(model, data, np.zeros(6))
       rest = data.body("shell").xpos.copy()
-    rays = _rays_at(model, data, q)
+    rays = geo.rays_at(model, data, q)
     body = data.body("shell")
     closed = geo.heights(P, body.xmat.reshape(3, 3), body.xpos - rest, centre=centre)
     np.testing.assert_allclose(rays, closed, rtol=0, atol=1e-9)
@@ -72,7 +68,7 @@ def test_preload_holds_the_design_gap_under_gravity():
   data = mujoco.MjData(model)
   for _ in range(3000):
     mujoco.mj_step(model, data)
-  np.testing.assert_allclose(geo.ray_heights(model, data, P), P.gap, atol=1e-7)
+  np.testing.assert_allclose(geo.ray_heights(model, data), P.gap, atol=1e-7)
 
 
 def test_vertical_ring_with_50_g_is_the_spring_mass_frequency():
@@ -118,14 +114,14 @@ def test_finite_facets_miss_where_rays_miss(rig):
   model, data = rig
   rng = np.random.default_rng(5)
   centre = shell.elastic_centre(P)
-  _rays_at(model, data, np.zeros(6))
+  geo.rays_at(model, data, np.zeros(6))
   rest = data.body("shell").xpos.copy()
   misses = 0
   # (the shell kept above the PCB: a ray from the aperture cannot see a facet below it)
   for _ in range(200):
     q = np.concatenate([rng.uniform(-3e-3, 3e-3, 2), rng.uniform(-1.5e-3, 1.5e-3, 1),
                         rng.uniform(-0.05, 0.05, 3)])
-    rays = _rays_at(model, data, q)
+    rays = geo.rays_at(model, data, q)
     body = data.body("shell")
     closed = geo.heights(P, body.xmat.reshape(3, 3), body.xpos - rest, centre=centre,
                          finite_facets=True)

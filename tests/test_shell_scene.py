@@ -45,7 +45,7 @@ def test_heights_from_joints_equal_rays(run):
   model = model_lib.build_spec(SMALL.params).compile()
   data = mujoco.MjData(model)
   for i in range(0, len(run.pose), 300):
-    np.testing.assert_allclose(shell_geometry.rays_at(model, data, SMALL.params, run.pose[i]),
+    np.testing.assert_allclose(shell_geometry.rays_at(model, data, run.pose[i]),
                                run.height[i], atol=1e-9)
 
 
@@ -95,9 +95,9 @@ def test_in_window_targets_keep_static_heights_inside():
   rng = np.random.default_rng(1)
   scene = dataclasses.replace(SMALL, force_range=1.0, torque_range=0.06)
   box = rng.uniform(-1, 1, (500, 6)) * np.array([1, 1, 1, 0.06, 0.06, 0.06])
-  scaled = box * shell._window_scale(scene.params, box)[:, None]
+  scaled = box * shell._window_scale(scene.params, box, scene.sensor)[:, None]
   h = shell.heights_from_pose(scene.params, shell.static_pose(scene.params, scaled))
-  lo, hi = shell.WINDOW
+  lo, hi = scene.sensor.window
   assert np.all((h >= lo - 1e-9) & (h <= hi + 1e-9))
   # and the scaling is tight: 1 % more leaves the window for the scaled-down targets
   cut = np.abs(np.linalg.norm(scaled, axis=1) - np.linalg.norm(box, axis=1)) > 1e-12
