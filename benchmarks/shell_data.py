@@ -11,6 +11,13 @@ from calibrate import estimators
 from sim import settings, shell
 
 
+AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+PRINT_UNITS = np.array([1, 1, 1, 1e3, 1e3, 1e3])  # SI to the paper's N and mN m
+# the paper's Table II, SkinProc row: range, resolution (N and N m)
+PAPER_TABLE2 = {"Fx": (2.3, 0.0054), "Fy": (2.1, 0.0167), "Fz": (1.9, 0.0051),
+                "Mx": (0.096, 0.00072), "My": (0.127, 0.00025), "Mz": (0.138, 0.00044)}
+
+
 def scenes(ctx) -> dict[str, shell.ShellScene]:
   """{"calibration", "test"} scenes at the paper's frame counts (a tenth with --quick), from
   seeds drawn from the run's seed; `--set` takes `ShellScene` fields."""

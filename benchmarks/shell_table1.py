@@ -12,9 +12,8 @@ fit to DIR/estimator.npz. `--set` takes `ShellScene` fields (force_range=0.8, pa
 effects=sensor_noise,ray_miss).
 
 With only the sourced effects (noise, 12-bit conversion, the sensor curve outside its
-window) the simulation is far better than the paper: its remaining errors come from
-effects not simulated by default (ray misses at the facet edges, `ray_miss`, opt-in) or
-not yet (stray infrared light, per-unit spread, spring hysteresis).
+window) the simulation is far better than the paper; the opt-in effects (`stray_ir`,
+`unit_spread`, `spring_hysteresis`, `ray_miss`) bring it nearer (README, known gaps).
 """
 
 from __future__ import annotations
@@ -26,11 +25,12 @@ from calibrate import metrics
 from sim import shell
 
 DESCRIPTION = "shell paper Table I: cubic calibration, median % error and worst % of range"
-AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+AXES = shell_data.AXES
 PAPER_TABLE1 = {  # median % error, worst case % of range (test set, n = 42316)
     "Fx": (18, 20), "Fy": (18, 59), "Fz": (16, 25), "Mx": (15, 43), "My": (7.6, 19),
     "Mz": (11, 28)}
-PAPER_RANGE = {"Fx": 2.3, "Fy": 2.1, "Fz": 1.9, "Mx": 96, "My": 127, "Mz": 138}  # Table II
+PAPER_RANGE = {a: round(float(shell_data.PAPER_TABLE2[a][0] * u), 9)  # N, mN m
+               for a, u in zip(AXES, shell_data.PRINT_UNITS)}
 
 
 def run(ctx) -> dict:
@@ -57,7 +57,7 @@ def run(ctx) -> dict:
       f"{m:6.2f} [{PAPER_TABLE1[a][0]:5.1f}]" for m, a in zip(median, AXES)))
   ctx.print("worst % of range     " + " ".join(
       f"{w:6.2f} [{PAPER_TABLE1[a][1]:5.1f}]" for w, a in zip(worst, AXES)))
-  rng = np.ptp(test.wrench, axis=0) * np.array([1, 1, 1, 1e3, 1e3, 1e3])
+  rng = np.ptp(test.wrench, axis=0) * shell_data.PRINT_UNITS
   ctx.print("test range (N, mN m) " + " ".join(
       f"{r:6.2f} [{PAPER_RANGE[a]:5.1f}]" for r, a in zip(rng, AXES)))
   ctx.print("[paper in brackets; ranges from its Table II]")

@@ -22,10 +22,7 @@ from benchmarks import shell_data
 from sim import shell
 
 DESCRIPTION = "shell paper Table II: range and resolution (std at rest) per axis"
-AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
-# range, resolution; N and N m
-PAPER_TABLE2 = {"Fx": (2.3, 0.0054), "Fy": (2.1, 0.0167), "Fz": (1.9, 0.0051),
-                "Mx": (0.096, 0.00072), "My": (0.127, 0.00025), "Mz": (0.138, 0.00044)}
+AXES, PAPER_TABLE2 = shell_data.AXES, shell_data.PAPER_TABLE2
 NANO43 = {"force": (18.0, 0.0039), "torque": (0.25, 0.00005)}
 REST_FRAMES = 1000
 
@@ -49,7 +46,7 @@ def run(ctx) -> dict:
                                             seed=rest_seed))
   resolution = np.std(est.predict(rest.counts), axis=0)
   span = np.ptp(runs["test"].wrench, axis=0)
-  unit = np.array([1, 1, 1, 1e3, 1e3, 1e3])  # N, mN m as the paper prints
+  unit = shell_data.PRINT_UNITS
   ctx.print(f"{'axis':5s} {'range':>16s} {'resolution':>18s}   (N or mN m; [paper], Nano43)")
   for i, a in enumerate(AXES):
     nano = NANO43["force" if i < 3 else "torque"]

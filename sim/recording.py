@@ -105,7 +105,7 @@ class Recording:
 
   @classmethod
   def concatenate(cls, parts: list["Recording"], meta: dict[str, Any]) -> "Recording":
-    arrays = {k: np.concatenate([p._arrays()[k] for p in parts]) for k in parts[0]._arrays()}
+    arrays = {k: np.concatenate([getattr(p, k) for p in parts]) for k in parts[0]._arrays()}
     return cls(meta=meta, **arrays)
 
 
