@@ -1,115 +1,118 @@
 """Command line: python -m benchmarks.run NAME [--quick] [--seed N] [--out DIR] [--set k=v ...]
 
-Each benchmark is a module of this package with DESCRIPTION and run(ctx) -> dict; the command
-writes what it returns to DIR/metrics.json next to `benchmark`, `seed` and `wall_seconds`.
+Runs a registered benchmark (`benchmarks.registry`) and writes what it returns to
+DIR/metrics.json next to `benchmark`, `seed`, `settings` and `wall_seconds`.
+`python -m benchmarks.run NAME --help` lists the keys --set takes for that benchmark.
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import importlib
 import json
 import pathlib
 import sys
 import time
-from typing import Callable, Optional
+from typing import Optional
 
-BENCHMARKS = ("asterisk_path", "circular_path", "footpad_table1", "lm_solvers", "footpad_dataset",
-              "footpad_kernels", "footpad_throughput", "shell_geometry", "shell_table1",
-              "shell_table2", "step_response", "gravity_vectors", "collisions")
-
-
-@dataclasses.dataclass(frozen=True)
-class Context:
-  """What a benchmark gets from the command line."""
-  quick: bool
-  seed: int
-  out: pathlib.Path
-  overrides: dict[str, str]
-  use_cache: bool
-  show_progress: bool = True
-
-  def print(self, *args) -> None:
-    print(*args, flush=True)
-
-  def progress(self, label: str) -> Optional[Callable[[int, int], None]]:
-    """A progress callback for library code: a tqdm bar if installed, else a status line."""
-    if not self.show_progress:
-      return None
-    try:
-      from tqdm import tqdm
-    except ImportError:
-      def line(done: int, total: int) -> None:
-        end = "\n" if done == total else ""
-        print(f"\r{label}: {done}/{total}", end=end, file=sys.stderr, flush=True)
-      return line
-    bar = {}
-
-    def update(done: int, total: int) -> None:
-      if "b" not in bar:
-        bar["b"] = tqdm(total=total, desc=label, file=sys.stderr, leave=False)
-      bar["b"].update(done - bar["b"].n)
-      if done == total:
-        bar["b"].close()
-    return update
-
-
-def _module(name: str):
-  return importlib.import_module(f"benchmarks.{name}")
+from benchmarks import registry
 
 
 def _parse_sets(items: list[str]) -> dict[str, str]:
   out = {}
   for item in items:
     key, eq, value = item.partition("=")
-    if not eq or not key:
+    if not eq or not key.strip():
       raise ValueError(f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
     out[key.strip()] = value.strip()
   return out
 
 
-def main(argv: Optional[list[str]] = None) -> int:
-  names = list(BENCHMARKS)
+def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParser:
   parser = argparse.ArgumentParser(
-      prog="python -m benchmarks.run",
+      prog="python -m benchmarks.run", add_help=False,
+      formatter_class=argparse.RawDescriptionHelpFormatter,
       description="Run a named benchmark of the tactile-sensor testbench and write "
-                  "DIR/metrics.json.",
-      epilog="benchmarks: " + "; ".join(f"{n}: {_module(n).DESCRIPTION}" for n in names))
+                  "DIR/metrics.json. 'NAME --help' lists the settings NAME takes.",
+      epilog="benchmarks:\n" + "\n".join(f"  {n:20s} {b.description}"
+                                         for n, b in benchmarks.items()))
   parser.add_argument("name", nargs="?", help="benchmark name (see --list)")
+  parser.add_argument("-h", "--help", action="store_true",
+                      help="show this help, or with NAME the settings NAME takes, and exit")
   parser.add_argument("--list", action="store_true", help="list benchmarks and exit")
   parser.add_argument("--quick", action="store_true",
-                      help="small data (3 Z levels instead of 16): finishes in seconds")
+                      help="small data (3 Z levels instead of 16, a tenth of the shell's "
+                           "frames): finishes in seconds to minutes")
   parser.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
   parser.add_argument("--out", type=pathlib.Path, default=None,
                       help="results folder (default results/NAME)")
   parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                      help="override a scene setting, e.g. params.friction=0.8, adc.vref=5, "
-                           "z_levels=0.0005,0.001, effects=friction,sensor_noise")
+                      help="change a setting, e.g. params.friction=0.8, adc.vref=5, "
+                           "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
+                           "--help)")
   parser.add_argument("--no-cache", action="store_true", help="simulate even if cached")
   parser.add_argument("--no-progress", action="store_true", help="no progress bars")
-  args = parser.parse_args(argv)
+  return parser
 
+
+def _format(value) -> str:
+  if isinstance(value, tuple):
+    return ",".join(_format(v) for v in value) if not any(
+        isinstance(v, tuple) for v in value) else ";".join(_format(v) for v in value)
+  return str(getattr(value, "value", value))
+
+
+def benchmark_help(bench: registry.Benchmark, quick: bool, seed: int) -> str:
+  """NAME --help: what the benchmark does and every key --set takes."""
+  from sim import settings
+  rows = settings.keys(bench.settings(quick, seed), bench.fixed)
+  lines = [f"python -m benchmarks.run {bench.name} [--quick] [--seed N] [--out DIR] "
+           f"[--set KEY=VALUE ...]", "", bench.description, "", bench.doc, "",
+           f"settings (--set KEY=VALUE){' with --quick' if quick else ''}:"]
+  for k in rows:
+    lines.append(f"  {k.name}  ({k.type}, default {_format(k.default)}; allowed {k.allowed})")
+    if k.doc:
+      lines.append(f"      {k.doc}")
+  if bench.fixed:
+    lines += ["", "set by the benchmark itself (not settable):"]
+    lines += [f"  {key}: {why}" for key, why in bench.fixed.items()]
+  return "\n".join(lines)
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+  benchmarks = registry.all_benchmarks()
+  parser = _parser(benchmarks)
+  args = parser.parse_args(argv)
+  if args.help and not args.name:
+    parser.print_help()
+    return 0
   if args.list:
-    for n in names:
-      print(f"{n:22s} {_module(n).DESCRIPTION}")
+    for n, b in benchmarks.items():
+      print(f"{n:22s} {b.description}")
     return 0
   if not args.name:
     parser.error("a benchmark name is required (see --list)")
-  if args.name not in names:
-    parser.error(f"unknown benchmark {args.name!r}: allowed {', '.join(names)}")
+  if args.name not in benchmarks:
+    parser.error(f"unknown benchmark {args.name!r}: allowed {', '.join(benchmarks)}")
   if args.seed < 0:
     parser.error(f"--seed {args.seed} is out of range: allowed integers >= 0")
+  bench = benchmarks[args.name]
+  if args.help:
+    print(benchmark_help(bench, args.quick, args.seed))
+    return 0
+  from sim import settings
   try:
     overrides = _parse_sets(args.sets)
-  except ValueError as err:
-    parser.error(str(err))
+    applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
+  except ValueError as err:  # a setting out of range: one line, no traceback
+    print(f"error: {err}", file=sys.stderr)
+    return 2
   out = args.out or pathlib.Path("results") / args.name
-  ctx = Context(args.quick, args.seed, out, overrides, not args.no_cache, not args.no_progress)
+  ctx = registry.Context(args.quick, args.seed, out, applied, overrides, not args.no_cache,
+                         not args.no_progress)
   t0 = time.perf_counter()
   try:
-    result = _module(args.name).run(ctx)
-  except ValueError as err:  # a setting out of range: one line, no traceback
+    result = bench.run(ctx)
+  except ValueError as err:  # a setting out of range found while running: one line
     print(f"error: {err}", file=sys.stderr)
     return 2
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,

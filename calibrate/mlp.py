@@ -8,13 +8,17 @@ theta = [W1 (H, D+1) row-major, W2 (O, H+1) row-major], P = H (D+1) + O (H+1).
 `normal_equations` forms J^T J and J^T e from the layer structure: with A = [x, 1],
 g = 1 - h^2 and Z = g (x) A (N, H (D+1)), the W1 block is (Z^T Z) * kron(W2^T W2, 1), the
 cross block is Z^T [h, 1] scaled by W2, and the W2 block is kron(I_O, [h,1]^T [h,1]); no
-(N O, P) Jacobian is materialised. Everything is float64 (`calibrate` enables JAX's x64).
+(N O, P) Jacobian is materialised. Everything is float64: the public entry points (`train`,
+`MLP.predict`, `nguyen_widrow`) switch JAX's 64-bit types on for their own duration
+(`float64`); importing this module changes no global setting. Callers of the building blocks
+(`normal_equations`, `residuals`) wrap them in `jax.enable_x64(True)` themselves.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import time
 from typing import Callable, Optional
 
@@ -24,7 +28,15 @@ import numpy as np
 
 from calibrate import linear
 
-jax.config.update("jax_enable_x64", True)
+
+
+def float64(fn):
+  """Runs `fn` with JAX's 64-bit types on, scoped to the call."""
+  @functools.wraps(fn)
+  def scoped(*args, **kwargs):
+    with jax.enable_x64(True):
+      return fn(*args, **kwargs)
+  return scoped
 
 
 class Stop(enum.Enum):
@@ -121,6 +133,7 @@ class MLP:
   x_scale: MinMax
   y_scale: MinMax
 
+  @float64
   def predict(self, x: np.ndarray) -> np.ndarray:
     x = linear.check_array(x, "inputs", self.w1.shape[1] - 1)
     s = np.asarray(_forward(_pack(self.w1, self.w2), jnp.asarray(self.x_scale.forward(x)),
@@ -238,6 +251,7 @@ def residuals(theta, x, y, h: int):
   return (y - _forward(theta, x, h, x.shape[1], y.shape[1])).ravel()
 
 
+@float64
 def nguyen_widrow(key, d: int, h: int, o: int) -> jnp.ndarray:
   """Start point: Nguyen-Widrow hidden layer for inputs in [-1, 1], small random outputs.
 
@@ -313,6 +327,7 @@ def _jaxopt_epoch_fn(h: int, cfg: LMConfig):
   return solver, jax.jit(epoch)
 
 
+@float64
 def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
           config: LMConfig = LMConfig(), seed: int = 0,
           progress: Optional[Callable[[int, int], None]] = None,

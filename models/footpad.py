@@ -6,7 +6,7 @@ by the CNC. The polyurethane layer is a grid of "bristle" elements: each element
 on three slide joints whose springs carry the rubber's local stiffness, ending in a sphere that
 makes stiff frictional contact with the plate. MuJoCo then resolves stick, partial slip and full
 slip element by element. Stresses inside the rubber are computed after the physics from the
-element forces (see `sim.layer`).
+element forces (see `sim.footpad.layer`).
 
 Frames (SI units throughout): the plate's top face is the plane z = 0 and carries the F/T site.
 The carriage origin is the centre of the pad's contact face; CNC joint positions are the
@@ -17,15 +17,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Literal
+
 import mujoco
 import numpy as np
 
-from sim.settings import require
+from models import fields
+from models.fields import setting
 
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
 AXES = ("x", "y", "z")
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class FootpadParams:
   """Physical parameters of the footpad and its rig.
@@ -63,32 +67,32 @@ class FootpadParams:
       Assumed 1 s.
     stiffness_profile: "bonded_plate" takes each element's spring rates from the finite-element
       block under a rigid plate stuck to its face, moved along x, y and z in turn (its nodal
-      reactions split by tributary area, `sim.layer.plate_stiffness`): stiffer in the middle
+      reactions split by tributary area, `sim.footpad.layer.plate_stiffness`): stiffer in the middle
       than at the free edges (normal x 0.87 at the corners to x 1.26 in the centre of the
       mean at 13 mm), with totals of 2.06 x E*A/h normal and 0.92 x G*A/h tangential.
       "uniform" gives every element a free rubber column's rates, E*A/h and G*A/h
       (`element_stiffness`).
   """
 
-  grid: tuple[int, int] = (6, 8)
-  footprint: tuple[float, float] = (0.032, 0.039)
-  thickness: float = 0.013
-  youngs_modulus: float = 0.73e6
-  poisson_ratio: float = 0.49
-  friction: float = 0.9
-  crown_radius: float = math.inf
-  density: float = 1000.0
-  damping_ratio: float = 0.3
-  die_x: tuple[float, ...] = (-0.0065, 0.0065)
-  die_y: tuple[float, ...] = (-0.011, 0.0, 0.011)
-  die_depth: float = 0.012
-  tip_radius: float = 0.0005
-  timestep: float = 0.001
-  cnc_kp: float = 2e7
-  cnc_mass: float = 1.0
-  relaxation_fraction: float = 0.2
-  relaxation_time: float = 1.0
-  stiffness_profile: str = "bonded_plate"
+  grid: tuple[int, int] = setting((6, 8), "[2, 20]", "elements")
+  footprint: tuple[float, float] = setting((0.032, 0.039), "[0.005, 0.2]", "m")
+  thickness: float = setting(0.013, "[0.001, 0.05]", "m")
+  youngs_modulus: float = setting(0.73e6, "[1e4, 1e8]", "Pa")
+  poisson_ratio: float = setting(0.49, "[0, 0.495]")
+  friction: float = setting(0.9, "(0, 5]")
+  crown_radius: float = setting(math.inf, "(0, inf]", "m")
+  density: float = setting(1000.0, "[100, 5000]", "kg/m^3")
+  damping_ratio: float = setting(0.3, "[0, 2]")
+  die_x: tuple[float, ...] = setting((-0.0065, 0.0065), "[-0.1, 0.1]", "m", length=(1, 10))
+  die_y: tuple[float, ...] = setting((-0.011, 0.0, 0.011), "[-0.1, 0.1]", "m", length=(1, 10))
+  die_depth: float = setting(0.012, "(0, 0.05)", "m")
+  tip_radius: float = setting(0.0005, "[0.0001, 0.005]", "m")
+  timestep: float = setting(0.001, "[1e-4, 2e-3]", "s")
+  cnc_kp: float = setting(2e7, "[1e4, 1e9]", "N/m")
+  cnc_mass: float = setting(1.0, "[0.01, 100]", "kg")
+  relaxation_fraction: float = setting(0.2, "(0, 1]")
+  relaxation_time: float = setting(1.0, "[0.01, 1000]", "s")
+  stiffness_profile: Literal["bonded_plate", "uniform"] = "bonded_plate"
 
   @property
   def shear_modulus(self) -> float:
@@ -133,34 +137,20 @@ class FootpadParams:
     kt = self.shear_modulus * dx * dy / h_local
     return np.stack([kt, kt, kn], axis=1)
 
+  def relations(self) -> fields.Relations:
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    half_diag = 0.5 * math.hypot(*self.footprint)
+    yield (self.crown_radius > 4 * half_diag, "crown_radius",
+           f"> {4 * half_diag:.3f} m (or inf for a flat pad)", self.crown_radius)
+    yield self.die_depth < self.thickness, "die_depth", f"(0, {self.thickness}) m", self.die_depth
+    yield (all(abs(x) < self.footprint[0] / 2 for x in self.die_x), "die_x",
+           f"|x| < {self.footprint[0] / 2} m", self.die_x)
+    yield (all(abs(y) < self.footprint[1] / 2 for y in self.die_y), "die_y",
+           f"|y| < {self.footprint[1] / 2} m", self.die_y)
+
   def validate(self) -> None:
     """Raise ValueError naming the first parameter outside its allowed range."""
-    def need(ok: bool, name: str, allowed: str, value) -> None:
-      require(ok, f"footpad parameter {name}", allowed, value)
-
-    need(len(self.grid) == 2 and all(int(g) == g and 2 <= g <= 20 for g in self.grid),
-         "grid", "two integers in [2, 20]", self.grid)
-    need(all(0.005 <= f <= 0.2 for f in self.footprint), "footprint", "[0.005, 0.2] m each",
-         self.footprint)
-    need(0.001 <= self.thickness <= 0.05, "thickness", "[0.001, 0.05] m", self.thickness)
-    need(1e4 <= self.youngs_modulus <= 1e8, "youngs_modulus", "[1e4, 1e8] Pa",
-         self.youngs_modulus)
-    need(0.0 <= self.poisson_ratio <= 0.495, "poisson_ratio", "[0, 0.495]", self.poisson_ratio)
-    need(self.friction > 0 and math.isfinite(self.friction), "friction", "(0, inf)",
-         self.friction)
-    half_diag = 0.5 * math.hypot(*self.footprint)
-    need(self.crown_radius > 4 * half_diag, "crown_radius",
-         f"> {4 * half_diag:.3f} m (or inf for a flat pad)", self.crown_radius)
-    need(0 < self.die_depth < self.thickness, "die_depth", f"(0, {self.thickness}) m",
-         self.die_depth)
-    need(all(abs(x) < self.footprint[0] / 2 for x in self.die_x), "die_x",
-         f"|x| < {self.footprint[0] / 2} m", self.die_x)
-    need(all(abs(y) < self.footprint[1] / 2 for y in self.die_y), "die_y",
-         f"|y| < {self.footprint[1] / 2} m", self.die_y)
-    need(0 <= self.damping_ratio <= 2, "damping_ratio", "[0, 2]", self.damping_ratio)
-    need(1e-4 <= self.timestep <= 2e-3, "timestep", "[1e-4, 2e-3] s", self.timestep)
-    need(self.stiffness_profile in ("bonded_plate", "uniform"), "stiffness_profile",
-         "'bonded_plate' or 'uniform'", self.stiffness_profile)
+    fields.check(self)
 
 
 def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool = False,
@@ -174,7 +164,7 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
       long-term spring (a fixed tendon over the axis's two joints) in parallel with a Maxwell
       arm (spring on the tip's joint, dashpot on an intermediate body's joint).
     stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
-      (`FootpadParams.element_stiffness`); see `sim.layer.element_stiffness`.
+      (`FootpadParams.element_stiffness`); see `sim.footpad.layer.element_stiffness`.
   Returns:
     The spec; compile with `spec.compile()`.
   """

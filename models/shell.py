@@ -21,9 +21,11 @@ import math
 import mujoco
 import numpy as np
 
-from sim.settings import require
+from models import fields
+from models.fields import setting
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class ShellParams:
   """Physical parameters of the shell, its mount and the sensor layout (SI units).
@@ -57,47 +59,33 @@ class ShellParams:
     timestep: simulation step, s (the joint springs are explicit: keep it <= 2 ms,
       DESIGN.md).
   """
-  slope_x: float = 0.3
-  slope_y: float = 0.3
-  spring_rate: float = 150.0
-  spring_height: float = 0.015
-  spring_diameter: float = 0.010
-  spring_poisson: float = 0.3
-  spring_xy: tuple[tuple[float, float], ...] = ((0.03, 0.02), (-0.03, 0.02), (0.03, -0.02),
-                                                (-0.03, -0.02))
-  gap: float = 0.003
-  damping_ratio: float = 0.05
-  shell_mass: float = 0.0067
-  reflector_mass: float = 0.003
-  chassis_mass: float = 0.039
-  sensor_x: tuple[float, ...] = (0.020, 0.016, 0.012, 0.016, -0.020, -0.016, -0.012, -0.016)
-  sensor_y: tuple[float, ...] = (0.0, -0.008, 0.0, 0.008, 0.0, 0.008, 0.0, -0.008)
-  reflector_size: float = 0.005
-  payload: float = 0.0
-  mount_friction: tuple[float, float] = (0.01, 0.0006)
-  timestep: float = 0.001
+  slope_x: float = setting(0.3, "[-2, 2]")
+  slope_y: float = setting(0.3, "[-2, 2]")
+  spring_rate: float = setting(150.0, "(0, 1e5]", "N/m")
+  spring_height: float = setting(0.015, "[0.002, 0.1]", "m")
+  spring_diameter: float = setting(0.010, "[0.001, 0.05]", "m")
+  spring_poisson: float = setting(0.3, "[0, 0.5)")
+  spring_xy: tuple[tuple[float, float], ...] = setting(
+      ((0.03, 0.02), (-0.03, 0.02), (0.03, -0.02), (-0.03, -0.02)), "[-0.1, 0.1]", "m",
+      length=(3, 16))
+  gap: float = setting(0.003, "[0.002, 0.004]", "m")
+  damping_ratio: float = setting(0.05, "[0, 2]")
+  shell_mass: float = setting(0.0067, "(0, 1]", "kg")
+  reflector_mass: float = setting(0.003, "(0, 1]", "kg")
+  chassis_mass: float = setting(0.039, "(0, 1]", "kg")
+  sensor_x: tuple[float, ...] = setting(
+      (0.020, 0.016, 0.012, 0.016, -0.020, -0.016, -0.012, -0.016), "[-0.1, 0.1]", "m",
+      length=(8, 8))
+  sensor_y: tuple[float, ...] = setting(
+      (0.0, -0.008, 0.0, 0.008, 0.0, 0.008, 0.0, -0.008), "[-0.1, 0.1]", "m", length=(8, 8))
+  reflector_size: float = setting(0.005, "(0, 0.05]", "m")
+  payload: float = setting(0.0, "[0, 0.2]", "kg")
+  mount_friction: tuple[float, float] = setting((0.01, 0.0006), "[0, 1]", "N, N m")
+  timestep: float = setting(0.001, "(0, 0.002]", "s")
 
   def validate(self) -> None:
     """Raise ValueError naming the first parameter outside its allowed range."""
-    for name in ("slope_x", "slope_y"):
-      v = getattr(self, name)
-      require(math.isfinite(v) and abs(v) <= 2.0, name, "[-2, 2] (rise over run)", v)
-    require(self.spring_rate > 0, "spring_rate", "> 0 N/m", self.spring_rate)
-    require(0.002 <= self.spring_height <= 0.1, "spring_height", "[0.002, 0.1] m",
-            self.spring_height)
-    require(0.001 <= self.spring_diameter <= 0.05, "spring_diameter", "[0.001, 0.05] m",
-            self.spring_diameter)
-    require(0 <= self.spring_poisson < 0.5, "spring_poisson", "[0, 0.5)", self.spring_poisson)
-    require(len(self.spring_xy) >= 3, "spring_xy", "at least 3 springs", self.spring_xy)
-    require(0.002 <= self.gap <= 0.004, "gap", "[0.002, 0.004] m, the sensor's fitted window",
-            self.gap)
-    require(0 <= self.damping_ratio <= 2, "damping_ratio", "[0, 2]", self.damping_ratio)
-    for name in ("shell_mass", "reflector_mass", "chassis_mass"):
-      require(getattr(self, name) > 0, name, "> 0 kg", getattr(self, name))
-    require(0 <= self.payload <= 0.2, "payload", "[0, 0.2] kg", self.payload)
-    require(len(self.sensor_x) == 8 and len(self.sensor_y) == 8, "sensor_x/sensor_y",
-            "8 positions each (P1..P8)", (self.sensor_x, self.sensor_y))
-    require(0 < self.timestep <= 0.002, "timestep", "(0, 0.002] s", self.timestep)
+    fields.check(self)
 
   def sensor_positions(self) -> np.ndarray:
     """(8, 3) sensor apertures in the chassis frame, m (z = 0: the PCB's top face)."""
@@ -117,7 +105,7 @@ def eqn3_matrix(params: ShellParams) -> np.ndarray:
   """(8, 6) the paper's Eqn 3: heights R1..R8 per (x, y, z, theta_x, theta_y, theta_z).
 
   Written from the layout as the paper writes it, from the spacings l_mn, for comparison
-  with the simulated map (`sim.shell_geometry.height_jacobian`).
+  with the simulated map (`sim.shell.geometry.height_jacobian`).
   """
   x, y = np.asarray(params.sensor_x), np.asarray(params.sensor_y)
   l15, l37 = x[0] - x[4], x[2] - x[6]

@@ -7,17 +7,18 @@ recordings are cached under a hash of everything that determines their bytes.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 import pathlib
-import tempfile
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
+from sim import cache
+
 _REQUIRED = ("time", "counts", "wrench", "episode")
-_OPTIONAL = ("pressure", "element_force", "cnc", "path", "z_level", "phase", "height", "pose")
+_OPTIONAL = ("pressure", "element_force", "cnc", "path", "z_level", "phase", "height", "pose",
+             "applied")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -44,6 +45,7 @@ class Recording:
     phase: footpad, (N,) 1 on the path at its indentation, 0 approaching or retreating.
     height: shell, (N, 8) reflector heights above the sensors, m (NaN: a missed facet).
     pose: shell, (N, 6) mount joints: displacement (m) and hinge angles (rad).
+    applied: shell, (N, 6) the hand's wrench about the F/T site, N and N m.
   """
   time: np.ndarray
   counts: np.ndarray
@@ -58,6 +60,7 @@ class Recording:
   phase: Optional[np.ndarray] = None
   height: Optional[np.ndarray] = None
   pose: Optional[np.ndarray] = None
+  applied: Optional[np.ndarray] = None
 
   def _arrays(self) -> dict[str, np.ndarray]:
     return {k: getattr(self, k) for k in _REQUIRED + _OPTIONAL if getattr(self, k) is not None}
@@ -89,10 +92,9 @@ class Recording:
     """Writes stem.npz and stem.json atomically; returns the .npz path."""
     stem = pathlib.Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(stem.with_suffix(".json"),
-            lambda f: f.write(json.dumps(self.meta, indent=1, sort_keys=True).encode()))
-    atomic_write(stem.with_suffix(".npz"),
-            lambda f: np.savez(f, **self._arrays()))
+    cache.atomic_write(stem.with_suffix(".json"),
+                       lambda f: f.write(json.dumps(self.meta, indent=1, sort_keys=True).encode()))
+    cache.atomic_write(stem.with_suffix(".npz"), lambda f: np.savez(f, **self._arrays()))
     return stem.with_suffix(".npz")
 
   @classmethod
@@ -109,19 +111,41 @@ class Recording:
     return cls(meta=meta, **arrays)
 
 
-def atomic_write(path: pathlib.Path, write) -> None:
-  with tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.name, suffix=".tmp",
-                                   delete=False) as f:
-    write(f)
-  os.replace(f.name, path)
+@dataclasses.dataclass(frozen=True)
+class Timing:
+  """Where the time of a simulated recording went.
+
+  Attributes:
+    build: model compilation and precomputed kernels (from the cache or solved), s.
+    simulate: wall time of the physics over all threads, s.
+    physics_cpu: summed per-thread time inside MuJoCo, s.
+    sensor_chain_cpu: summed time from joint positions to counts, s; compare with physics_cpu.
+    steps: simulation steps.
+    threads: worker threads.
+  """
+  build: float
+  simulate: float
+  physics_cpu: float
+  sensor_chain_cpu: float
+  steps: int
+  threads: int
 
 
-def cache_dir() -> pathlib.Path:
-  """Root of the on-disk cache: $TESTBENCH_CACHE or ~/.cache/footpad-testbench."""
-  root = os.environ.get("TESTBENCH_CACHE")
-  return pathlib.Path(root) if root else pathlib.Path.home() / ".cache" / "footpad-testbench"
+def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recording, Timing]],
+             use_cache: bool = True) -> tuple[Recording, Optional[Timing]]:
+  """The recording of a scene, from the cache when an identical request was made before.
 
-
-def content_key(config: dict[str, Any]) -> str:
-  """Stable hash of a JSON-able configuration."""
-  return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:24]
+  Args:
+    rig: name prefix of the cached files ("footpad", "shell").
+    key: everything that determines the recording's bytes (scene and versions).
+    simulate: runs the scene when the cache misses.
+  Returns:
+    The recording and the timing of its simulation (None when loaded from the cache).
+  """
+  stem = cache.cache_dir() / "recordings" / f"{rig}-{cache.content_key(key)}"
+  if use_cache and stem.with_suffix(".npz").exists() and stem.with_suffix(".json").exists():
+    return Recording.load(stem), None
+  rec, timing = simulate()
+  if use_cache:
+    rec.save(stem)
+  return rec, timing

@@ -1,77 +1,170 @@
-"""`key=value` settings (the command's --set) applied to frozen dataclasses of any scene.
+"""`key=value` settings (the command's --set) applied to the declared dataclasses of any scene.
 
-Keys name fields, with dots into nested dataclasses (params.friction=0.8); values are parsed
-like the field's current value (numbers, booleans, comma-separated tuples, enums by value).
+Keys name fields, with dots into nested dataclasses (params.friction=0.8). Each value is read
+as the field's annotation says (`models.fields`): numbers, integers, booleans (true/false,
+1/0, yes/no, on/off), comma-separated tuples (pairs separated by ";", e.g.
+spring_xy=0.03,0.02;-0.03,0.02;0.03,-0.02), `Literal` choices, enums by value, "none" for
+an optional field. Every value is then checked against the field's declared range, and the
+whole object against its relations; any problem raises one ValueError that names the key and
+what it allows.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import enum
+import typing
+from typing import Any, Mapping
+
+from models import fields
+
+_TRUE = ("true", "1", "yes", "on")
+_FALSE = ("false", "0", "no", "off")
 
 
-def require(ok: bool, name: str, allowed: str, value) -> None:
-  """Raise ValueError naming a setting whose value lies outside what is allowed."""
-  if not ok:
-    raise ValueError(f"{name}={value!r} is out of range: allowed {allowed}")
+@dataclasses.dataclass(frozen=True)
+class Key:
+  """One settable key, as `NAME --help` lists it.
+
+  Attributes:
+    name: dotted key (params.friction).
+    type: the annotation, as text.
+    default: the value before any --set.
+    allowed: the declared range, choices or form.
+    doc: first sentence of the field's docstring entry.
+  """
+  name: str
+  type: str
+  default: Any
+  allowed: str
+  doc: str
 
 
-def in_bounds(obj, bounds) -> None:
-  """`require` each (field name, low, high) of `bounds` on the dataclass `obj`, inclusive."""
-  for name, lo, hi in bounds:
-    v = getattr(obj, name)
-    require(lo <= v <= hi, name, f"[{lo}, {hi}]", v)
+def apply(obj: Any, overrides: Mapping[str, str],
+          fixed: Mapping[str, str] | None = None) -> Any:
+  """A copy of the dataclass `obj` with the settings applied and checked.
 
-
-def apply(obj, overrides: dict[str, str]):
-  """A copy of the dataclass `obj` with the settings applied; unknown keys and unreadable
-  values raise ValueError naming the key and what is allowed."""
+  Args:
+    obj: a declared dataclass (`models.fields.declared`).
+    overrides: {key: text}.
+    fixed: keys the caller sets itself, with the reason; setting one is refused.
+  Raises:
+    ValueError naming the key and what it allows: unknown or fixed keys, unreadable values,
+    values out of range, and relations between fields that fail.
+  """
+  fixed = fixed or {}
   for key, text in overrides.items():
-    obj = _override(obj, key, text)
+    for name, why in fixed.items():
+      if key == name or key.startswith(name + "."):
+        raise ValueError(f"{key} is set by this benchmark ({why}); it cannot be changed "
+                         f"with --set")
+    obj = _override(obj, key, key, text)
+  fields.check(obj)
   return obj
 
 
-def _parse(text: str, like):
-  if isinstance(like, bool):
-    return text.lower() in ("1", "true", "yes", "on")
-  if isinstance(like, tuple):
-    items = [t for t in text.split(",") if t]
-    return tuple(_parse(t, like[0]) if like else float(t) for t in items)
-  if isinstance(like, int):
-    return int(text)
-  if isinstance(like, float) or like is None:
-    return float(text)
-  if isinstance(like, enum.Enum):
-    return type(like)(text)
-  return text
+def keys(obj: Any, fixed: Mapping[str, str] | None = None, prefix: str = "") -> list[Key]:
+  """Every key of `obj` that --set takes (nested fields included, fixed keys left out)."""
+  fixed = fixed or {}
+  out = []
+  hints = fields.types_of(type(obj))
+  docs = fields.docs_of(type(obj))
+  for f in dataclasses.fields(obj):
+    name = prefix + f.name
+    if name in fixed:
+      continue
+    value = getattr(obj, f.name)
+    if dataclasses.is_dataclass(value):
+      out += keys(value, fixed, name + ".")
+    else:
+      out.append(Key(name, _type_text(hints[f.name]), value,
+                     fields.allowed(hints[f.name], f.metadata), docs.get(f.name, "")))
+  return out
 
 
-def _override(obj, key: str, text: str):
-  head, _, rest = key.partition(".")
-  fields = {f.name: f for f in dataclasses.fields(obj)}
-  if head not in fields:
-    raise ValueError(f"unknown setting {key!r}: allowed "
-                     f"{', '.join(sorted(_setting_names(obj)))}")
+def _override(obj: Any, key: str, path: str, text: str) -> Any:
+  head, _, rest = path.partition(".")
+  by_name = {f.name: f for f in dataclasses.fields(obj)}
+  if head not in by_name:
+    known = ", ".join(k.name for k in keys(obj))
+    raise ValueError(f"unknown setting {key!r}: allowed {known}")
   current = getattr(obj, head)
   if rest:
     if not dataclasses.is_dataclass(current):
       raise ValueError(f"unknown setting {key!r}: {head} has no sub-settings")
-    return dataclasses.replace(obj, **{head: _override(current, rest, text)})
+    return dataclasses.replace(obj, **{head: _override(current, key, rest, text)})
   if dataclasses.is_dataclass(current):
-    raise ValueError(f"setting {key!r} needs a field, e.g. {head}.<name>")
+    raise ValueError(f"setting {key!r} needs a field, e.g. {key}.<name> (see NAME --help)")
+  f = by_name[head]
+  tp = fields.types_of(type(obj))[head]
+  allowed = fields.allowed(tp, f.metadata)
   try:
-    value = _parse(text, current)
+    value = parse(text, tp)
   except ValueError as err:
-    raise ValueError(f"setting {key}={text!r} could not be read: {err}") from None
+    raise ValueError(f"{key}={text!r} could not be read ({err}): allowed {allowed}") from None
+  fields.check_value(key, value, tp, f.metadata)
   return dataclasses.replace(obj, **{head: value})
 
 
-def _setting_names(obj, prefix: str = "") -> list[str]:
-  out = []
-  for f in dataclasses.fields(obj):
-    v = getattr(obj, f.name)
-    if dataclasses.is_dataclass(v):
-      out += _setting_names(v, prefix + f.name + ".")
-    else:
-      out.append(prefix + f.name)
-  return out
+def parse(text: str, tp) -> Any:
+  """The value of `text` as annotation `tp` says; ValueError saying what was expected."""
+  text = text.strip()
+  inner, optional = fields.optional(tp)
+  if optional:
+    return None if text.lower() in ("none", "") else parse(text, inner)
+  origin = typing.get_origin(tp)
+  if origin is typing.Literal:
+    choices = typing.get_args(tp)
+    for c in choices:
+      if text == str(c):
+        return c
+    raise ValueError("not one of the choices")
+  if isinstance(tp, type) and issubclass(tp, enum.Enum):
+    try:
+      return tp(text)
+    except ValueError:
+      raise ValueError("not one of the choices") from None
+  if tp is bool:
+    if text.lower() in _TRUE:
+      return True
+    if text.lower() in _FALSE:
+      return False
+    raise ValueError("needs true/false, 1/0, yes/no or on/off")
+  if origin is tuple:
+    args = typing.get_args(tp)
+    item = args[0]
+    sep = ";" if typing.get_origin(item) is tuple else ","
+    parts = [p for p in text.split(sep) if p.strip()]
+    if len(args) == 2 and args[1] is Ellipsis:
+      return tuple(parse(p, item) for p in parts)
+    if len(parts) != len(args):
+      raise ValueError(f"needs {len(args)} items separated by {sep!r}, got {len(parts)}")
+    return tuple(parse(p, a) for p, a in zip(parts, args))
+  if tp is int:
+    try:
+      return int(text)
+    except ValueError:
+      raise ValueError("not an integer") from None
+  if tp is float:
+    try:
+      return float(text)
+    except ValueError:
+      raise ValueError("not a number") from None
+  return text
+
+
+def _type_text(tp) -> str:
+  inner, optional = fields.optional(tp)
+  if optional:
+    return f"optional {_type_text(inner)}"
+  origin = typing.get_origin(tp)
+  if origin is typing.Literal:
+    return "choice"
+  if isinstance(tp, type) and issubclass(tp, enum.Enum):
+    return "choice"
+  if origin is tuple:
+    args = typing.get_args(tp)
+    if len(args) == 2 and args[1] is Ellipsis:
+      return f"{_type_text(args[0])}s"
+    return "(" + ", ".join(_type_text(a) for a in args) + ")"
+  return getattr(tp, "__name__", str(tp))

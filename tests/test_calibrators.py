@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from benchmarks import footpad_table
-from benchmarks.run import Context
+from benchmarks.footpad import table as footpad_table
+from benchmarks.registry import Context
 from calibrate import estimators, mlp
 
 FAST = mlp.LMConfig(hidden=5, epochs=30)
@@ -49,8 +49,9 @@ def test_same_seed_same_network():
 
 @pytest.fixture(scope="module")
 def table(tmp_path_factory):
-  ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"), overrides={},
-                use_cache=True, show_progress=False)
+  from sim.footpad import protocol
+  ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"),
+                settings=protocol.base(quick=True, seed=0), show_progress=False)
   return footpad_table.run_table(ctx, ("asterisk",), seeds=1)["results"]
 
 

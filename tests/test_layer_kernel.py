@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from models.footpad import FootpadParams
-from sim import footpad, layer
+from sim.footpad import layer, scene as footpad
 
 
 def _graded(half, fine, n_fine, n_coarse):

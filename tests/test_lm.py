@@ -9,6 +9,13 @@ import scipy.optimize
 from calibrate import mlp
 
 
+@pytest.fixture(autouse=True)
+def float64():
+  """The building blocks are called directly here: float64 as the trainer runs them."""
+  with jax.enable_x64(True):
+    yield
+
+
 def _teacher(n=400, d=3, h=4, o=2, seed=0):
   """Inputs in [-1, 1] and the outputs of a known network (already in scaled units)."""
   rng = np.random.default_rng(seed)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sim.photointerrupter import Photointerrupter, fit_inverse_r, range_from_counts
+from sim.shell.photointerrupter import Photointerrupter, fit_inverse_r, range_from_counts
 
 S = Photointerrupter()
 
@@ -49,7 +49,7 @@ def test_bad_sweep_is_named():
 
 
 def test_chain_effects_are_independent_and_seeded():
-  from sim import photointerrupter
+  from sim.shell import photointerrupter
   rng = np.random.default_rng(0)
   h = rng.uniform(0.0005, 0.005, (2000, 8))
   ideal = photointerrupter.apply(h, (), seed=1)
@@ -66,7 +66,7 @@ def test_chain_effects_are_independent_and_seeded():
 
 
 def test_unit_spread_is_an_affine_map_per_sensor():
-  from sim import photointerrupter
+  from sim.shell import photointerrupter
   h = np.random.default_rng(2).uniform(0.0022, 0.0038, (3000, 8))
   ideal = photointerrupter.apply(h, (), seed=4)
   spread = photointerrupter.apply(h, ("unit_spread",), seed=4)
@@ -79,7 +79,7 @@ def test_unit_spread_is_an_affine_map_per_sensor():
 
 
 def test_stray_ir_wanders_with_its_rms_and_correlation_time():
-  from sim import photointerrupter
+  from sim.shell import photointerrupter
   h = np.full((200_000, 8), 0.003)
   base = photointerrupter.apply(h, (), seed=1)
   ir = photointerrupter.apply(h, ("stray_ir",), seed=1) - base

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models import footpad as model_lib
-from sim import layer
+from sim.footpad import layer
 
 P = model_lib.FootpadParams()
 

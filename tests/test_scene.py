@@ -8,8 +8,8 @@ import pytest
 
 from benchmarks import run as cli
 from models import footpad as model_lib
-from sim import footpad, layer, trajectories
-from sim.effects import FOOTPAD_EFFECTS
+from sim.footpad import layer, scene as footpad, trajectories
+from sim.footpad.effects import EFFECTS as FOOTPAD_EFFECTS
 
 SMALL = footpad.FootpadScene(paths=("x_stroke",), z_levels=(0.001,), feed=0.005,
                              effects=("friction", "sensor_noise", "ft_noise"), seed=5)
@@ -73,12 +73,12 @@ def test_middle_row_carries_less_signal_under_y_shear():
 
 
 @pytest.mark.parametrize("change, message", [
-    (dict(z_levels=(-0.001,)), "z_level -0.001 m is out of range"),
-    (dict(z_levels=(0.01,)), "z_level 0.01 m is out of range"),
-    (dict(paths=("spiral",)), "unknown path 'spiral'"),
-    (dict(effects=("glitter",)), "unknown effect 'glitter'"),
-    (dict(params=model_lib.FootpadParams(friction=0.0)), "friction=0.0 is out of range"),
-    (dict(params=model_lib.FootpadParams(friction=-1.0)), "friction=-1.0 is out of range"),
+    (dict(z_levels=(-0.001,)), r"z_levels=\(-0.001,\) is out of range: allowed \[0, 0.02\] m"),
+    (dict(z_levels=(0.01,)), r"z_levels=\(0.01,\) is out of range: allowed \[0, 0.0052\] m"),
+    (dict(paths=("spiral",)), r"paths=\('spiral',\) is out of range: allowed any of 'z_press'"),
+    (dict(effects=("glitter",)), r"effects=\('glitter',\) is out of range: allowed any of"),
+    (dict(params=model_lib.FootpadParams(friction=0.0)), "params.friction=0.0 is out of range"),
+    (dict(params=model_lib.FootpadParams(friction=-1.0)), "params.friction=-1.0 is out of range"),
 ])
 def test_bad_input_is_named(change, message):
   with pytest.raises(ValueError, match=message):

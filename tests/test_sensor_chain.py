@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from sim import sensor_chain
-from sim.effects import FOOTPAD_EFFECTS, Kind
+from sim.footpad import sensor_chain
+from sim.effects import Kind
+from sim.footpad.effects import EFFECTS as FOOTPAD_EFFECTS
 
 SIGNAL = [n for n, e in FOOTPAD_EFFECTS.items() if e.kind is Kind.SIGNAL]
 

@@ -46,17 +46,17 @@ def test_step_response_rings_at_the_spring_mass_frequency(tmp_path):
 
 
 def test_gravity_vectors_reads_the_mass_and_the_tared_shell(tmp_path):
-  from benchmarks import gravity_vectors as gv
   from models import shell
+  from sim.shell import turn
   args = ["gravity_vectors", "--quick", "--out", str(tmp_path), "--no-progress"]
   assert cli.main(args) == 0
   m = json.loads((tmp_path / "metrics.json").read_text())["results"]["every direction"]
   # statics: the mass's weight plus the change of the shell's own weight since the tare
   p = shell.ShellParams()
   m_shell = p.shell_mass + p.reflector_mass + 8e-5
-  g = gv.gravity_sequence(2000)
+  g = turn.gravity_sequence(2000)
   g0 = g[0]
-  expected = np.mean(np.linalg.norm(gv.PAYLOAD * g + m_shell * (g - g0), axis=1)
+  expected = np.mean(np.linalg.norm(turn.PAYLOAD * g + m_shell * (g - g0), axis=1)
                      / np.linalg.norm(g, axis=1)) * 1e3
   assert abs(m["mean_mass_g"] / expected - 1) < 0.05, (m["mean_mass_g"], expected)
   assert m["mean_angle_deg"] < 20

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from models import shell
-from sim import shell_geometry as geo
+from sim.shell import geometry as geo
 
 P = shell.ShellParams()
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models import shell as model_lib
-from sim import shell, shell_geometry
+from sim.shell import geometry as shell_geometry, scene as shell
 
 SMALL = shell.ShellScene(frames=3000, force_range=0.5, torque_range=0.02, knot_interval=2.0,
                          seed=3)
@@ -15,7 +15,7 @@ SMALL = shell.ShellScene(frames=3000, force_range=0.5, torque_range=0.02, knot_i
 
 @pytest.fixture(scope="module")
 def run():
-  return shell.simulate(SMALL)
+  return shell.simulate(SMALL)[0]
 
 
 def test_tared_ft_equals_the_applied_wrench_under_slow_loading(run):
@@ -50,10 +50,10 @@ def test_heights_from_joints_equal_rays(run):
 
 
 def test_same_seed_same_bytes_other_seed_other_loads(run):
-  again = shell.simulate(SMALL)
+  again, _ = shell.simulate(SMALL)
   assert again.pose.tobytes() == run.pose.tobytes()
   assert again.wrench.tobytes() == run.wrench.tobytes()
-  other = shell.simulate(dataclasses.replace(SMALL, seed=4))
+  other, _ = shell.simulate(dataclasses.replace(SMALL, seed=4))
   assert not np.allclose(other.applied, run.applied)
 
 
@@ -78,8 +78,9 @@ def test_hand_loads_keep_the_static_heights_in_the_window():
 
 def test_bottoming_out_is_reported():
   with pytest.warns(UserWarning, match="into the PCB"):
-    r = shell.simulate(dataclasses.replace(SMALL, frames=2000, force_range=4.0, in_window=False))
-  assert 0 < r.bottomed <= r.out_of_window <= 1
+    r, _ = shell.simulate(dataclasses.replace(SMALL, frames=2000, force_range=4.0,
+                                              in_window=False))
+  assert 0 < r.meta["bottomed"] <= r.meta["out_of_window"] <= 1
 
 
 @pytest.mark.parametrize("change, message", [
@@ -120,20 +121,20 @@ def test_static_pose_matches_the_simulated_rest_under_a_steady_wrench():
 def test_rank_deficient_slopes_run_with_a_warning_naming_the_lost_direction():
   flat_x = dataclasses.replace(SMALL.params, slope_x=0.0)
   with pytest.warns(UserWarning, match=r"rank 5: the sensors cannot see 1 x"):
-    r = shell.simulate(dataclasses.replace(SMALL, params=flat_x, frames=500))
+    r, _ = shell.simulate(dataclasses.replace(SMALL, params=flat_x, frames=500))
   assert np.isfinite(r.counts).all()
 
 
 def test_run_saves_and_loads_as_a_recording(run, tmp_path):
   from sim import recording
-  rec = shell.to_recording(run, SMALL)
-  rec.save(tmp_path / "cal")
+  run.save(tmp_path / "cal")
   back = recording.Recording.load(tmp_path / "cal")
   assert back.counts.tobytes() == run.counts.tobytes()
   assert back.height.tobytes() == run.height.tobytes()
-  assert back.pressure is None and back.meta["scene"] == "shell"
+  assert back.applied.tobytes() == run.applied.tobytes()
+  assert back.pressure is None and back.meta == run.meta and back.meta["scene"] == "shell"
   half = back.select(back.episode == 0)
-  assert len(half) == int(np.sum(run.session == 0))
+  assert len(half) == int(np.sum(run.episode == 0))
   with pytest.raises(ValueError, match="no paths"):
     back.on_path("asterisk")
 
@@ -163,7 +164,7 @@ def test_cubic_calibration_is_exact_on_noiseless_in_window_counts():
   """The paper's cubic pseudoinverse (Eqns 4-9) on the scene's own noiseless counts: a wrench
   that is an exact cubic of them is recovered to 1e-8."""
   from calibrate import estimators
-  r = shell.simulate(dataclasses.replace(SMALL, effects=()))
+  r, _ = shell.simulate(dataclasses.replace(SMALL, effects=()))
   lo, hi = SMALL.sensor.window
   counts = r.counts[np.all((r.height >= lo) & (r.height <= hi), axis=1)]
   assert len(counts) > 1000
@@ -174,3 +175,16 @@ def test_cubic_calibration_is_exact_on_noiseless_in_window_counts():
   est = estimators.fit(estimators.Kind.POLY, counts, wrench)
   err = np.max(np.abs(est.predict(counts) - wrench)) / np.max(np.abs(wrench))
   assert err < 1e-8, err
+
+
+def test_cache_round_trip_gives_the_same_recording(tmp_path, monkeypatch):
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
+  scene = dataclasses.replace(SMALL, frames=500)
+  first, timing = shell.generate(scene)
+  second, timing2 = shell.generate(scene)
+  assert timing is not None and timing2 is None
+  for name in ("counts", "wrench", "height", "pose", "applied", "time", "episode"):
+    assert getattr(second, name).tobytes() == getattr(first, name).tobytes()
+  assert second.meta == first.meta
+  other, timing3 = shell.generate(dataclasses.replace(scene, seed=4))
+  assert timing3 is not None and not np.array_equal(other.counts, first.counts)

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from sim import shell_walk
+from sim.shell import walk as shell_walk
 
 
 def test_one_tripod_always_stands_and_the_cranks_turn_smoothly():

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from sim import trajectories as tr
+from sim.footpad import trajectories as tr
 
 DT, FEED = 0.001, 0.005
 

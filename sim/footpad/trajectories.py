@@ -8,6 +8,7 @@ constant feed; an episode adds the approach from just above first touch and the 
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal
 
 import numpy as np
 
@@ -70,6 +71,7 @@ def _route(name: str, repeats: int) -> list[np.ndarray]:
 
 PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular", "test_path_1",
          "test_path_2")
+PathName = Literal[PATHS]  # what a scene's `paths` field takes
 
 
 def _resample(points: np.ndarray, step: float) -> np.ndarray:

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 
-from benchmarks import footpad_data
-from sim import footpad, layer
-
-DESCRIPTION = "footpad simulation speed: scene vs bare mj_step, sensor-chain share of time"
+from benchmarks import footpad
+from benchmarks.registry import register
 
 
+@register("footpad_throughput", "footpad simulation speed: scene vs bare mj_step, "
+          "sensor-chain share of time", settings=footpad.protocol_settings,
+          fixed=footpad.FIXED, tags=("footpad", "speed"))
 def run(ctx) -> dict:
-  scene = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)["train"]
+  from sim.footpad import layer, protocol, scene as scene_lib
+  scene = protocol.scenes(ctx.settings)["train"]
   scene = dataclasses.replace(scene, paths=("asterisk",))
   layer.die_kernel(scene.params, scene.kernel)  # solve (or load) the kernel outside the timing
-  rec, t = footpad.simulate(scene, ctx.progress("episodes"))
-  bare = footpad.bare_step_rate(scene)
+  rec, t = scene_lib.simulate(scene, ctx.progress("episodes"))
+  bare = scene_lib.bare_step_rate(scene)
   scene_rate = t.steps / t.simulate
   res = {"steps": t.steps, "threads": t.threads, "scene_steps_per_s": scene_rate,
          "scene_steps_per_s_per_thread": scene_rate / t.threads,

@@ -2,8 +2,9 @@
 
 A scene is declarative (`FootpadScene`): model parameters, paths, Z indentations, feed,
 effects and seed. `simulate` runs every episode (threads, one MjData each, `mujoco.rollout`),
-turns joint positions into element forces, die pressures (through `sim.layer`) and counts
-(through `sim.sensor_chain`), and returns one `Recording`. `generate` adds the on-disk cache.
+turns joint positions into element forces, die pressures (through `sim.footpad.layer`) and
+counts (through `sim.footpad.sensor_chain`), and returns one `Recording`. `generate` adds the
+on-disk cache.
 """
 
 from __future__ import annotations
@@ -20,9 +21,13 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
-from models import footpad as model_lib
-from sim import layer, recording, sensor_chain, settings, trajectories
-from sim.effects import FOOTPAD_EFFECTS, check_effects
+from models import fields, footpad as model_lib
+from models.fields import setting
+from sim import recording
+from sim.effects import check_effects
+from sim.footpad import layer, sensor_chain, trajectories
+from sim.footpad.effects import EFFECTS, EffectName
+from sim.footpad.trajectories import PathName
 
 PAPER_Z_LEVELS = tuple(round(0.0001 * i, 4) for i in range(16))  # 0-1.5 mm in 0.1 mm steps
 # Strain up to which the linear element springs stand for the rubber; the CNC is refused
@@ -32,71 +37,57 @@ MAX_STRAIN = 0.4
 Progress = Callable[[int, int], None]
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class FootpadScene:
   """Everything that determines a footpad recording.
 
   Attributes:
     params: pad and rig parameters.
-    paths: path names (see `sim.trajectories.PATHS`).
+    paths: path names (see `sim.footpad.trajectories.PATHS`).
     z_levels: indentations, m, at which every path except z_press runs.
-    feed: CNC feed rate, m/s (assumed 5 mm/s: ~9.6 s per asterisk, DESIGN.md).
+    feed: CNC feed rate, m/s (assumed 5 mm/s: ~9.6 s per asterisk path).
     press_repeats: presses in z_press (paper: 10); strokes use 3 back-and-forth passes.
     press_depth: depth of z_press, m; None presses until the first die saturates (paper
       Sec. III-B), computed from the kernel, capped at the strain limit.
     kernel: die-stress kernel.
     adc: sensor supply and ADC.
-    effects: names from `sim.effects.FOOTPAD_EFFECTS`.
+    effects: names from `sim.footpad.effects.EFFECTS`.
     seed: one integer for every random draw of the run.
   """
   params: model_lib.FootpadParams = model_lib.FootpadParams()
-  paths: tuple[str, ...] = ("asterisk",)
-  z_levels: tuple[float, ...] = PAPER_Z_LEVELS
-  feed: float = 0.005
-  press_repeats: int = 10
-  press_depth: Optional[float] = None
+  paths: tuple[PathName, ...] = ("asterisk",)
+  z_levels: tuple[float, ...] = setting(PAPER_Z_LEVELS, "[0, 0.02]", "m", length=(1, 100))
+  feed: float = setting(0.005, "[1e-4, 0.05]", "m/s")
+  press_repeats: int = setting(10, "[1, 100]")
+  press_depth: Optional[float] = setting(None, "(0, 0.02]", "m")
   kernel: layer.Kernel = layer.Kernel.BONDED_LAYER
   adc: sensor_chain.AdcConfig = sensor_chain.AdcConfig(vref=3.3)
-  effects: tuple[str, ...] = ("friction",)
-  seed: int = 0
+  effects: tuple[EffectName, ...] = ("friction",)
+  seed: int = setting(0, "[0, inf)")
 
   @property
   def max_indentation(self) -> float:
     return MAX_STRAIN * self.params.thickness
 
-  def validate(self) -> None:
-    self.params.validate()
-    self.adc.validate()
-    check_effects(self.effects, FOOTPAD_EFFECTS)
-    for p in self.paths:
-      if p not in trajectories.PATHS:
-        raise ValueError(f"unknown path {p!r}: allowed {', '.join(trajectories.PATHS)}")
+  def relations(self) -> fields.Relations:
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
     lim = self.max_indentation
-    for z in self.z_levels:
-      if not (0.0 <= z <= lim):
-        raise ValueError(f"z_level {z!r} m is out of range: allowed [0, {lim:.4g}] m "
-                         f"({MAX_STRAIN:.0%} strain of the {self.params.thickness} m rubber)")
-    if self.press_depth is not None and not 0.0 < self.press_depth <= lim:
-      raise ValueError(f"press_depth {self.press_depth!r} m is out of range: allowed "
-                       f"(0, {lim:.4g}] m")
-    if not 1e-4 <= self.feed <= 0.05:
-      raise ValueError(f"feed {self.feed!r} m/s is out of range: allowed [1e-4, 0.05] m/s")
-    if not 1 <= self.press_repeats <= 100:
-      raise ValueError(f"press_repeats {self.press_repeats!r} is out of range: allowed [1, 100]")
-    if int(self.seed) != self.seed or self.seed < 0:
-      raise ValueError(f"seed {self.seed!r} is out of range: allowed integers >= 0")
+    strain = f"[0, {lim:.4g}] m ({MAX_STRAIN:.0%} strain of the {self.params.thickness} m rubber)"
+    yield all(0.0 <= z <= lim for z in self.z_levels), "z_levels", strain, self.z_levels
+    yield (self.press_depth is None or self.press_depth <= lim, "press_depth",
+           f"(0, {lim:.4g}] m or none", self.press_depth)
+
+  def validate(self) -> None:
+    """Raise ValueError naming the first setting outside its allowed range."""
+    fields.check(self)
 
   def config(self) -> dict:
     """JSON-able description (the cache key and the recording's metadata)."""
     d = dataclasses.asdict(self)
     d["kernel"] = self.kernel.value
-    d["effects"] = list(check_effects(self.effects, FOOTPAD_EFFECTS))
+    d["effects"] = list(check_effects(self.effects, EFFECTS))
     return d
-
-  def with_overrides(self, overrides: dict[str, str]) -> "FootpadScene":
-    """A copy with `key=value` settings applied; keys name scene fields or `params.*`,
-    `adc.*` fields (e.g. params.friction=0.8, adc.vref=5, z_levels=0.0005,0.001)."""
-    return settings.apply(self, overrides)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -107,7 +98,7 @@ class SimulationError(RuntimeError):
 
 def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   """The scene's MuJoCo model, with the model effects it lists."""
-  effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
+  effects = check_effects(scene.effects, EFFECTS)
   return model_lib.build_spec(scene.params, friction="friction" in effects,
                               viscoelastic="viscoelastic" in effects,
                               stiffness=layer.element_stiffness(scene.params)).compile()
@@ -166,27 +157,6 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
   return qpos, sens[0], time.perf_counter() - t0
 
 
-@dataclasses.dataclass(frozen=True)
-class Timing:
-  """Where the time went.
-
-  Attributes:
-    build: model compilation and die kernel (from cache or solved), s.
-    simulate: wall time of the episodes over all threads, s.
-    physics_cpu: summed per-thread time inside MuJoCo, s.
-    sensor_chain_cpu: summed time from joint positions to counts (element forces, die
-      kernel, transfer law, effects), s; compare with physics_cpu.
-    steps: simulation steps.
-    threads: worker threads.
-  """
-  build: float
-  simulate: float
-  physics_cpu: float
-  sensor_chain_cpu: float
-  steps: int
-  threads: int
-
-
 def element_couples(forces: np.ndarray, deflection: np.ndarray) -> np.ndarray:
   """(..., num_elements, 2) couples (N m, along x and y) of the `p_delta` effect: the normal
   force moved sideways by the shear deflection, the shear moved towards the PCB by the
@@ -195,11 +165,11 @@ def element_couples(forces: np.ndarray, deflection: np.ndarray) -> np.ndarray:
 
 
 def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
-             threads: Optional[int] = None) -> tuple[recording.Recording, Timing]:
+             threads: Optional[int] = None) -> tuple[recording.Recording, recording.Timing]:
   """Runs the scene (no cache). `progress(done, total)` is called as episodes finish."""
   scene.validate()
   t0 = time.perf_counter()
-  effects = check_effects(scene.effects, FOOTPAD_EFFECTS)
+  effects = check_effects(scene.effects, EFFECTS)
   model = compile_model(scene)
   kernel = layer.die_kernel(scene.params, scene.kernel)
   eps = episodes(scene, kernel)
@@ -258,7 +228,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
             "units": {"counts": "ADC counts", "pressure": "Pa", "wrench": "N, N m",
                       "cnc": "m", "time": "s"},
             "versions": versions()})))
-  return rec, Timing(t1 - t0, t2 - t1, physics_cpu, chain_cpu, len(pressure), threads)
+  return rec, recording.Timing(t1 - t0, t2 - t1, physics_cpu, chain_cpu, len(pressure), threads)
 
 
 def versions() -> dict[str, str]:
@@ -269,24 +239,20 @@ def versions() -> dict[str, str]:
           "physics": "3"}
 
 
-def cache_key(scene: FootpadScene) -> str:
-  return recording.content_key({"scene": scene.config(), "versions": versions()})
+def cache_key(scene: FootpadScene) -> dict:
+  """Everything that determines the scene's recording."""
+  return {"scene": scene.config(), "versions": versions()}
 
 
-def generate(scene: FootpadScene, progress: Optional[Progress] = None,
-             use_cache: bool = True) -> tuple[recording.Recording, Optional[Timing]]:
+def generate(scene: FootpadScene, progress: Optional[Progress] = None, use_cache: bool = True
+             ) -> tuple[recording.Recording, Optional[recording.Timing]]:
   """The scene's recording, from the cache when an identical request was made before.
 
   Returns the recording and the timing of the simulation (None when loaded from the cache).
   """
   scene.validate()
-  stem = recording.cache_dir() / "recordings" / f"footpad-{cache_key(scene)}"
-  if use_cache and stem.with_suffix(".npz").exists() and stem.with_suffix(".json").exists():
-    return recording.Recording.load(stem), None
-  rec, timing = simulate(scene, progress)
-  if use_cache:
-    rec.save(stem)
-  return rec, timing
+  return recording.generate("footpad", cache_key(scene), lambda: simulate(scene, progress),
+                            use_cache)
 
 
 def bare_step_rate(scene: FootpadScene, steps: int = 3000) -> float:

@@ -8,22 +8,24 @@ from __future__ import annotations
 
 import dataclasses
 
-
-from benchmarks import footpad_data
-from calibrate import linear, metrics
-from sim import footpad, layer
-
-DESCRIPTION = "shear sensing through the bonded-layer vs half-space die kernel (linear fit R²)"
+from benchmarks import footpad
+from benchmarks.registry import register
 
 
+@register("footpad_kernels", "shear sensing through the bonded-layer vs half-space die kernel "
+          "(linear fit R²)", settings=footpad.protocol_settings,
+          fixed={**footpad.FIXED, "kernel": "the benchmark runs both kernels"},
+          tags=("footpad", "physics"))
 def run(ctx) -> dict:
-  base = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)["train"]
+  from calibrate import linear, metrics
+  from sim.footpad import layer, protocol, scene as scene_lib
+  base = protocol.scenes(ctx.settings)["train"]
   base = dataclasses.replace(base, paths=("x_stroke", "y_stroke"))
   results = {}
   ctx.print(f"{'kernel':14s} {'R2 X %':>8s} {'R2 Y %':>8s} {'R2 Z %':>8s} {'NRMSE X %':>10s} "
             f"{'NRMSE Y %':>10s}")
   for kernel in layer.Kernel:
-    rec, _ = footpad.generate(dataclasses.replace(base, kernel=kernel),
+    rec, _ = scene_lib.generate(dataclasses.replace(base, kernel=kernel),
                               ctx.progress(kernel.value), ctx.use_cache)
     on = rec.on_path()
     fit = linear.fit_linear(on.counts, on.wrench[:, :3])

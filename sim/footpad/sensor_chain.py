@@ -7,10 +7,14 @@ pressures with other effects or another seed without re-simulating.
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal
 
 import numpy as np
 
-from sim.effects import FOOTPAD_EFFECTS, check_effects, rng_for
+from models import fields
+from models.fields import setting
+from sim.effects import check_effects, rng_for
+from sim.footpad.effects import EFFECTS
 
 ATMOSPHERE = 101.325e3  # Pa
 # MPXH6400A transfer function (datasheet): Vout = Vs * (0.002421 * P[kPa] - 0.00842).
@@ -20,6 +24,7 @@ MPX_P_MAX = 400e3  # Pa absolute, end of the rated range
 MPX_P_MIN = 20e3
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class AdcConfig:
   """Sensor supply and ADC.
@@ -32,24 +37,19 @@ class AdcConfig:
     gain_spread: relative sd of per-die sensitivity for `gain_offset_spread`.
     offset_spread: sd of per-die offset for `gain_offset_spread`, Pa.
   """
-  vs: float = 5.0
-  vref: float = 5.0
-  bits: int = 12
-  noise_counts: float = 1.5
-  gain_spread: float = 0.10
-  offset_spread: float = 3e3
+  vs: float = setting(5.0, "[4.5, 5.5]", "V")
+  vref: float = setting(5.0, "[1, 5.5]", "V")
+  bits: Literal[8, 10, 12, 14, 16] = 12
+  noise_counts: float = setting(1.5, "[0, 1000]", "counts")
+  gain_spread: float = setting(0.10, "[0, 1]")
+  offset_spread: float = setting(3e3, "[0, 1e5]", "Pa")
 
   @property
   def full_scale(self) -> int:
     return 2**self.bits - 1
 
   def validate(self) -> None:
-    if not 1.0 <= self.vref <= 5.5:
-      raise ValueError(f"adc vref={self.vref} is out of range: allowed [1, 5.5] V")
-    if not 4.5 <= self.vs <= 5.5:
-      raise ValueError(f"adc vs={self.vs} is out of range: allowed [4.5, 5.5] V")
-    if self.bits not in (8, 10, 12, 14, 16):
-      raise ValueError(f"adc bits={self.bits} is out of range: allowed 8, 10, 12, 14, 16")
+    fields.check(self)
 
 
 def pressure_to_counts(pressure: np.ndarray, adc: AdcConfig) -> np.ndarray:
@@ -82,7 +82,7 @@ def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
   Returns:
     counts (N, D) float64 and the plate wrench as measured (N, 6).
   """
-  effects = check_effects(effects, FOOTPAD_EFFECTS)
+  effects = check_effects(effects, EFFECTS)
   adc.validate()
   p = np.asarray(pressure, dtype=np.float64)
   if "gain_offset_spread" in effects:

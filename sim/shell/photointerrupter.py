@@ -3,8 +3,8 @@
 The reflected intensity, after the SkinProc's current-to-voltage amplifier and 12-bit ADC,
 follows s = a / r + b over the 2-4 mm window the paper fits (Sec. II-B, Eqns 1-2; Fig. 4:
 ~3900 counts at 2 mm, ~1975 at 4 mm). Nearer than that the detector's field of view and the
-emitter's beam stop overlapping on the reflector, so the response peaks (~0.8 mm, DESIGN.md)
-and falls to zero at contact; here that is the factor 1 - exp(-(r / r_c)^2), which peaks at
+emitter's beam stop overlapping on the reflector, so the response peaks (~0.8 mm, the GP2S60
+datasheet's relative output against distance) and falls to zero at contact; here that is the factor 1 - exp(-(r / r_c)^2), which peaks at
 r = 1.121 r_c and departs from 1/r by under 0.05 % above 2 mm. `fit_inverse_r` is the paper's
 Eqn 1 for users' own height sweeps, `range_from_counts` its Eqn 2.
 """
@@ -16,46 +16,51 @@ import dataclasses
 import numpy as np
 import scipy.signal
 
-from sim.effects import SHELL_EFFECTS, check_effects, rng_for
-from sim.settings import require
+from models import fields
+from models.fields import setting
+from sim.effects import check_effects, rng_for
+from sim.shell.effects import EFFECTS
 
 # u = r / r_c at the maximum of (1 - exp(-u^2)) / u: 2 u^2 exp(-u^2) = 1 - exp(-u^2)
 _PEAK_U = 1.1209
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class Photointerrupter:
   """Response of one sensor channel.
 
   Attributes:
-    a: 1/r coefficient, counts m; b: offset, counts. Defaults from the paper's Fig. 4 (3900
-      counts at 2 mm, 1975 at 4 mm): a = 7.7 counts m, b = 50 counts.
+    a: 1/r coefficient, counts m. From the paper's Fig. 4 (3900 counts at 2 mm, 1975 at
+      4 mm): a = 7.7 counts m, b = 50 counts.
+    b: offset (the dark reading), counts; from Fig. 4 as for a.
     peak: height of the response peak, m (~0.8 mm).
     full_scale: largest ADC count (12-bit: 4095).
     window: (low, high) heights, m, where the 1/r law is fitted and trusted (2-4 mm).
-    gain_spread, offset_spread: `unit_spread` effect: relative sd of a, sd of b (counts).
-    stray_ir, stray_ir_time: `stray_ir` effect: rms offset (counts) of each of its two parts
-      and their correlation time (s). 20 counts: the top of the 3-22 counts per sensor that
+    gain_spread, offset_spread: for the `unit_spread` effect: relative sd of a, sd of b
+      (counts).
+    stray_ir, stray_ir_time: for the `stray_ir` effect: rms offset (counts) of each of its
+      two parts and their correlation time (s). 20 counts: the top of the 3-22 counts per sensor that
       the paper's Table II resolutions amount to through the calibration (`shell_table2`);
       a 10 s rest sees less than the full rms of a 5 s process. The time is assumed.
   """
-  a: float = 7.7
-  b: float = 50.0
-  peak: float = 0.0008
-  full_scale: int = 4095
-  window: tuple[float, float] = (0.002, 0.004)
-  gain_spread: float = 0.15
-  offset_spread: float = 30.0
-  stray_ir: float = 20.0
-  stray_ir_time: float = 5.0
+  a: float = setting(7.7, "(0, 1000]", "counts m")
+  b: float = setting(50.0, "[-4095, 4095]", "counts")
+  peak: float = setting(0.0008, "(0, 0.01)", "m")
+  full_scale: int = setting(4095, "[1, 65535]", "counts")
+  window: tuple[float, float] = setting((0.002, 0.004), "(0, 0.05)", "m")
+  gain_spread: float = setting(0.15, "[0, 10]")
+  offset_spread: float = setting(30.0, "[0, 1e4)", "counts")
+  stray_ir: float = setting(20.0, "[0, 1e4)", "counts")
+  stray_ir_time: float = setting(5.0, "(0, 1e4]", "s")
+
+  def relations(self) -> fields.Relations:
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield (self.peak < self.window[0] < self.window[1], "window",
+           f"(low, high) with peak={self.peak} m < low < high", self.window)
 
   def validate(self) -> None:
-    for name in ("gain_spread", "offset_spread", "stray_ir"):
-      require(0 <= getattr(self, name) < 1e4, name, "[0, 1e4)", getattr(self, name))
-    require(self.stray_ir_time > 0, "stray_ir_time", "> 0 s", self.stray_ir_time)
-    require(self.a > 0, "a", "> 0 counts m", self.a)
-    if not 0 < self.peak < self.window[0] < self.window[1]:
-      raise ValueError(f"need 0 < peak < window[0] < window[1], got {self.peak}, {self.window}")
+    fields.check(self)
 
   def counts(self, height: np.ndarray, near_field: bool = True) -> np.ndarray:
     """(...) counts before noise and quantisation, clipped to [0, full_scale]; NaN heights
@@ -121,12 +126,12 @@ def apply(height: np.ndarray, effects, seed: int,
           sensor: Photointerrupter = Photointerrupter(),
           frame_rate: float = 100.0, unit_seed: int | None = None) -> np.ndarray:
   """Counts (N, 8) float64 from heights (N, 8), m, frames at frame_rate (Hz), with the listed
-  signal effects of `SHELL_EFFECTS` (model effects are the scene's).
+  signal effects of `sim.shell.effects.EFFECTS` (model effects are the scene's).
 
   unit_seed draws the `unit_spread` of the physical sensors (default: seed); runs of one
   board (calibration, test) share it while their noise differs.
   """
-  effects = check_effects(effects, SHELL_EFFECTS)
+  effects = check_effects(effects, EFFECTS)
   sensor.validate()
   counts = sensor.counts(height, near_field="out_of_window" in effects)
   if "unit_spread" in effects:

@@ -7,7 +7,11 @@ contact face, to the compressive normal stress p = -sigma_zz (Pa) at each die:
   to the rigid PCB (displacements fixed on the PCB face, other faces free), one solve per unit
   traction on each element's patch. A bonded layer turns the overturning moment of shear
   (shear x height) into a normal-stress difference across the board: the column difference by
-  which a 2x3 array senses shear (DESIGN.md, "What a half-space kernel misses").
+  which a 2x3 array senses shear. A half-space kernel misses it: there shear reaches the dies
+  only through Cerruti terms (~40 Pa per newton of uniform shear at each die, against 400-670
+  Pa per newton from a single nearby element), and in an end-to-end prototype a linear fit
+  then read shear at R2 ~35 % against the paper's 72-81 % (measured; `footpad_kernels`
+  compares the two kernels on the current pad).
 * `halfspace_kernel`: Boussinesq (normal) + Cerruti (tangential) point-load stresses integrated
   over each patch: the thick-layer limit of the former, kept as a selectable kernel.
 
@@ -26,7 +30,7 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from models.footpad import FootpadParams
-from sim import recording
+from sim import cache
 
 
 class Kernel(enum.Enum):
@@ -380,17 +384,6 @@ def plate_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> np.
   return params.youngs_modulus * out
 
 
-def _cached(kind: str, key: dict, compute) -> np.ndarray:
-  """A finite-element result from the on-disk cache, computed and stored on a miss."""
-  path = recording.cache_dir() / kind / (recording.content_key(key) + ".npy")
-  if path.exists():
-    return np.load(path)
-  value = compute()
-  path.parent.mkdir(parents=True, exist_ok=True)
-  recording.atomic_write(path, lambda f: np.save(f, value))
-  return value
-
-
 def _layer_key(params: FootpadParams, mesh: LayerMesh, dies: bool = True) -> dict:
   """What a finite-element result depends on (results are per unit E, so not E)."""
   key = {"footprint": params.footprint, "grid": params.grid, "thickness": params.thickness,
@@ -404,7 +397,8 @@ def _kernels(params: FootpadParams, kernel: Kernel, mesh: LayerMesh) -> np.ndarr
   """Both kernels of one kind, (num_dies, num_elements, 5); finite-element ones cached."""
   if kernel is Kernel.HALFSPACE:
     return halfspace_kernel(params)
-  return _cached("kernels", _layer_key(params, mesh), lambda: bonded_layer_kernel(params, mesh))
+  return cache.cached_array("kernels", _layer_key(params, mesh),
+                            lambda: bonded_layer_kernel(params, mesh))
 
 
 def die_kernel(params: FootpadParams, kernel: Kernel = Kernel.BONDED_LAYER,
@@ -427,7 +421,7 @@ def element_stiffness(params: FootpadParams, mesh: LayerMesh = LayerMesh()) -> n
   """
   if params.stiffness_profile == "uniform":
     return params.element_stiffness()
-  per_e = _cached("stiffness", _layer_key(params, mesh, dies=False),
+  per_e = cache.cached_array("stiffness", _layer_key(params, mesh, dies=False),
                   lambda: plate_stiffness(params, mesh) / params.youngs_modulus)
   crown = params.thickness / (params.thickness - params.crown_sag())
   return params.youngs_modulus * per_e * crown[:, None]

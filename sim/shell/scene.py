@@ -3,28 +3,32 @@
 A scene is declarative (`ShellScene`). `hand_loads` draws smooth random wrenches like the
 paper's slow manual loading (about +-1 N and +-60 mN m in every axis, Sec. III-A); `simulate`
 applies them to the shell through `xfrc_applied` with `mujoco.rollout` (one continuous
-session per thread, each starting and ending at rest), and returns per frame the shell's
-pose, each reflector's height above its sensor (closed form from the mount joints), and the
-F/T body's reading (sign flipped to the wrench on the shell, tared at no load) as truth.
+session per thread, each starting and ending at rest), and returns a `Recording` holding per
+frame the shell's pose, each reflector's height above its sensor (closed form from the mount
+joints), and the F/T body's reading (sign flipped to the wrench on the shell, tared at no
+load) as truth. `generate` adds the on-disk cache. The other shell scenes (`drop`, `turn`,
+`walk`) step their own rigs through `run_frames` and read the same board through `sense`.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import json
 import os
 import time
 import warnings
-from typing import Callable, Optional
+from typing import Any, Callable, Literal, Optional
 
 import mujoco
 import mujoco.rollout
 import numpy as np
 
-from models import shell as model_lib
-from sim import photointerrupter, recording, shell_geometry
-from sim.effects import SHELL_EFFECTS, check_effects
-from sim.settings import require
+from models import fields, shell as model_lib
+from models.fields import setting
+from sim import recording
+from sim.shell import geometry, photointerrupter
+from sim.shell.effects import EffectName
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
 FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
@@ -32,6 +36,7 @@ FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
 Progress = Callable[[int, int], None]
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class ShellScene:
   """Everything that determines a shell run.
@@ -55,43 +60,35 @@ class ShellScene:
     sensor: the photointerrupters' response and the sizes of their effects.
     unit_seed: which physical board: draws the sensors' `unit_spread`, shared by the runs of
       one board (calibration and test) while `seed` draws their loads and noise.
-    effects: names from `sim.effects.SHELL_EFFECTS`; by default the ones whose magnitude
+    effects: names from `sim.shell.effects.EFFECTS`; by default the ones whose magnitude
       has a source (`ray_miss` waits on the real facet size: opt in with effects=...).
     seed: one integer for every random draw.
   """
   params: model_lib.ShellParams = model_lib.ShellParams()
-  frames: int = PAPER_FRAMES["calibration"]
-  steps_per_frame: int = 10
-  force_range: float = 1.0
-  torque_range: float = 0.06
-  knot_interval: float = 0.5
-  downward_bias: float = 0.0
+  frames: int = setting(PAPER_FRAMES["calibration"], "[1, 1e7]")
+  steps_per_frame: int = setting(10, "[1, 100]")
+  force_range: float = setting(1.0, "(0, 5]", "N")
+  torque_range: float = setting(0.06, "(0, 0.3]", "N m")
+  knot_interval: float = setting(0.5, "[0.05, 10]", "s")
+  downward_bias: float = setting(0.0, "[0, 1]")
   in_window: bool = True
-  loading: str = "hand"
-  sessions: int = 2
-  effects: tuple[str, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
+  loading: Literal["hand", "rest"] = "hand"
+  sessions: int = setting(2, "[1, 64]")
+  effects: tuple[EffectName, ...] = ("adc_quantisation", "out_of_window", "sensor_noise")
   sensor: photointerrupter.Photointerrupter = photointerrupter.Photointerrupter()
-  unit_seed: int = 0
-  seed: int = 0
+  unit_seed: int = setting(0, "[0, inf)")
+  seed: int = setting(0, "[0, inf)")
+
+  def relations(self) -> fields.Relations:
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    frame = self.params.timestep * self.steps_per_frame
+    yield (abs(frame * FRAME_RATE - 1) <= 1e-9, "steps_per_frame",
+           f"{1 / (FRAME_RATE * self.params.timestep):g} at params.timestep="
+           f"{self.params.timestep} s: one 100 Hz frame", self.steps_per_frame)
 
   def validate(self) -> None:
-    self.params.validate()
-    self.sensor.validate()
-    check_effects(self.effects, SHELL_EFFECTS)
-    require(1 <= self.frames <= 10**7, "frames", "[1, 1e7]", self.frames)
-    require(1 <= self.steps_per_frame <= 100, "steps_per_frame", "[1, 100]",
-            self.steps_per_frame)
-    require(0 < self.force_range <= 5, "force_range", "(0, 5] N", self.force_range)
-    require(0 < self.torque_range <= 0.3, "torque_range", "(0, 0.3] N m", self.torque_range)
-    require(0.05 <= self.knot_interval <= 10, "knot_interval", "[0.05, 10] s",
-            self.knot_interval)
-    require(0 <= self.downward_bias <= 1, "downward_bias", "[0, 1]", self.downward_bias)
-    require(1 <= self.sessions <= 64, "sessions", "[1, 64]", self.sessions)
-    require(self.loading in ("hand", "rest"), "loading", "'hand' or 'rest'", self.loading)
-    require(int(self.seed) == self.seed and self.seed >= 0, "seed", "integers >= 0", self.seed)
-    dt = self.params.timestep * self.steps_per_frame
-    if abs(dt * FRAME_RATE - 1) > 1e-9:
-      raise ValueError(f"timestep x steps_per_frame = {dt} s: must be one 100 Hz frame")
+    """Raise ValueError naming the first setting outside its allowed range."""
+    fields.check(self)
 
   def spec(self, base: str = "ft", contacts: bool = False) -> mujoco.MjSpec:
     """The scene's rig (`models.shell.build_spec`) with the model effects it lists."""
@@ -168,44 +165,12 @@ def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
   return np.where(full, 1.0, lo)
 
 
-@dataclasses.dataclass(frozen=True)
-class ShellRun:
-  """Frames of a shell run.
-
-  Attributes:
-    pose: (F, 6) mount joints: shell displacement (m) and hinge angles (rad).
-    height: (F, 8) reflector heights above P1..P8, m; NaN where a sensor looks past its
-      facet (`ray_miss`).
-    counts: (F, 8) photointerrupter counts with the scene's effects.
-    wrench: (F, 6) F/T truth: force (N) and torque about the F/T site (N m) on the shell side,
-      tared at no load.
-    applied: (F, 6) the hand's wrench about the F/T site, N and N m.
-    session: (F,) index of the continuous session.
-    seconds: wall time of the physics, s.  steps: physics steps.
-    out_of_window: share of frames with any height outside the sensor's 2-4 mm window (or
-      missed).
-    bottomed: share of frames with any reflector at or below the PCB (the shell would hit the
-      chassis; that contact is not simulated).
-  """
-  pose: np.ndarray
-  height: np.ndarray
-  counts: np.ndarray
-  wrench: np.ndarray
-  applied: np.ndarray
-  session: np.ndarray
-  seconds: float
-  steps: int
-  out_of_window: float
-  bottomed: float
-
-
 def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray,
                       finite_facets: bool = False) -> np.ndarray:
   """(..., 8) heights from mount joint positions (..., 6): the closed form of the joint chain
   (slides, then hinges about x, turned y, turned z through the elastic centre); with
-  finite_facets, NaN where a sensor looks past its facet (`shell_geometry.heights`)."""
-  return shell_geometry.pose_heights(params, pose, model_lib.elastic_centre(params),
-                                    finite_facets)
+  finite_facets, NaN where a sensor looks past its facet (`geometry.heights`)."""
+  return geometry.pose_heights(params, pose, model_lib.elastic_centre(params), finite_facets)
 
 
 def _xfrc(model: mujoco.MjModel, data: mujoco.MjData, wrench: np.ndarray) -> np.ndarray:
@@ -222,14 +187,12 @@ def _xfrc(model: mujoco.MjModel, data: mujoco.MjData, wrench: np.ndarray) -> np.
 
 
 def simulate(scene: ShellScene, progress: Optional[Progress] = None,
-             threads: Optional[int] = None) -> ShellRun:
-  """Runs the scene's sessions in parallel; `progress(done, total)` per finished chunk."""
+             threads: Optional[int] = None) -> tuple[recording.Recording, recording.Timing]:
+  """Runs the scene's sessions in parallel (no cache); `progress(done, total)` per finished
+  chunk. Returns the frames as a `Recording` and where the time went."""
   scene.validate()
-  quality = shell_geometry.map_quality(shell_geometry.height_jacobian(scene.params))
-  if quality.rank < 6:
-    warnings.warn(f"slopes c_x={scene.params.slope_x}, c_y={scene.params.slope_y} give a height "
-                  f"map of rank {quality.rank}: the sensors cannot see "
-                  f"{'; '.join(quality.lost)}", stacklevel=2)
+  _warn_rank(scene)
+  t_build = time.perf_counter()
   model = scene.spec().compile()
   per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
   seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)
@@ -243,6 +206,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   done = [0]
 
   def run_session(i: int):
+    t_session = time.perf_counter()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     tare = np.concatenate([data.sensordata[sens[0]:sens[0] + 3],
@@ -267,12 +231,13 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
         progress(done[0], total_chunks)
     if not np.isfinite(state).all():
       raise RuntimeError(f"session {i}: the shell's state became non-finite")
-    return np.concatenate(poses), np.concatenate(ft), loads[spf - 1::spf]
+    return (np.concatenate(poses), np.concatenate(ft), loads[spf - 1::spf],
+            time.perf_counter() - t_session)
 
   t0 = time.perf_counter()
   with concurrent.futures.ThreadPoolExecutor(threads) as pool:
     parts = list(pool.map(run_session, range(scene.sessions)))
-  seconds = time.perf_counter() - t0
+  t1 = time.perf_counter()
   pose = np.concatenate([p[0] for p in parts])
   height, counts = sense(scene, pose, scene.seed)
   out = float(np.mean(~np.all(scene.sensor.in_window(height), axis=1)))
@@ -280,32 +245,89 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
                                                                                pose)
   bottomed = float(np.mean(np.any(unbounded <= 0.0, axis=1)))
+  _warn_bottomed(scene, bottomed)
+  time_in_session = np.concatenate([np.arange(1, len(p[0]) + 1) / FRAME_RATE for p in parts])
+  rec = recording.Recording(
+      time=time_in_session, counts=counts, wrench=np.concatenate([p[1] for p in parts]),
+      episode=np.concatenate([np.full(len(p[0]), i, np.int32) for i, p in enumerate(parts)]),
+      height=height, pose=pose, applied=np.concatenate([p[2] for p in parts]),
+      meta=json.loads(json.dumps({
+          "scene": "shell", "config": config(scene), "effects": list(scene.effects),
+          "seed": scene.seed, "sensors": "GP2S60 x8", "out_of_window": out,
+          "bottomed": bottomed,
+          "units": {"counts": "ADC counts", "wrench": "N, N m", "height": "m",
+                    "pose": "m, rad", "applied": "N, N m", "time": "s"},
+          "versions": versions()})))
+  timing = recording.Timing(build=t0 - t_build, simulate=t1 - t0,
+                            physics_cpu=sum(p[3] for p in parts),
+                            sensor_chain_cpu=time.perf_counter() - t1,
+                            steps=int(per_session.sum()) * spf, threads=threads)
+  return rec, timing
+
+
+def _warn_rank(scene: ShellScene) -> None:
+  quality = geometry.map_quality(geometry.height_jacobian(scene.params))
+  if quality.rank < 6:
+    warnings.warn(f"slopes c_x={scene.params.slope_x}, c_y={scene.params.slope_y} give a height "
+                  f"map of rank {quality.rank}: the sensors cannot see "
+                  f"{'; '.join(quality.lost)}", stacklevel=3)
+
+
+def _warn_bottomed(scene: ShellScene, bottomed: float) -> None:
   if bottomed > 0:
     warnings.warn(f"{bottomed:.1%} of frames drive a reflector into the PCB (the shell would "
                   f"hit the chassis, which is not simulated): lower force_range "
                   f"({scene.force_range} N) or torque_range ({scene.torque_range} N m)",
-                  stacklevel=2)
-  return ShellRun(pose=pose, height=height, counts=counts,
-                  wrench=np.concatenate([p[1] for p in parts]),
-                  applied=np.concatenate([p[2] for p in parts]),
-                  session=np.concatenate([np.full(len(p[0]), i, np.int32)
-                                          for i, p in enumerate(parts)]),
-                  seconds=seconds, steps=int(per_session.sum()) * spf, out_of_window=out,
-                  bottomed=bottomed)
+                  stacklevel=3)
 
 
-def to_recording(run: ShellRun, scene: ShellScene) -> recording.Recording:
-  """The run as a `Recording` (the type every calibrator and file takes), 100 Hz frames."""
-  per = np.bincount(run.session)
-  t = np.concatenate([np.arange(1, n + 1) / FRAME_RATE for n in per])
-  config = dataclasses.asdict(scene)
-  return recording.Recording(
-      time=t, counts=run.counts, wrench=run.wrench, episode=run.session, height=run.height,
-      pose=run.pose,
-      meta={"scene": "shell", "config": config, "effects": list(scene.effects),
-            "seed": scene.seed, "sensors": "GP2S60 x8",
-            "out_of_window": run.out_of_window, "bottomed": run.bottomed,
-            "units": {"counts": "ADC counts", "wrench": "N, N m", "height": "m",
-                      "pose": "m, rad", "time": "s"},
-            "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__,
-                         "recording_format": "1"}})
+def config(scene: ShellScene) -> dict:
+  """JSON-able description (the cache key and the recording's metadata)."""
+  return json.loads(json.dumps(dataclasses.asdict(scene)))
+
+
+def versions() -> dict[str, str]:
+  # "physics" changes whenever the model or the sensor chain does, so stale cached
+  # recordings are not reused.
+  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
+          "physics": "1"}
+
+
+def generate(scene: ShellScene, progress: Optional[Progress] = None, use_cache: bool = True
+             ) -> tuple[recording.Recording, Optional[recording.Timing]]:
+  """The scene's recording, from the cache when an identical request was made before.
+
+  Returns the recording and the timing of the simulation (None when loaded from the cache).
+  """
+  scene.validate()
+  rec, timing = recording.generate("shell", {"scene": config(scene), "versions": versions()},
+                                   lambda: simulate(scene, progress), use_cache)
+  if timing is None:  # from the cache: the warnings its simulation gave
+    _warn_rank(scene)
+    _warn_bottomed(scene, rec.meta["bottomed"])
+  return rec, timing
+
+
+def run_frames(model: mujoco.MjModel, data: mujoco.MjData, steps: int, every: int,
+               before_step: Optional[Callable[[int], None]] = None,
+               read: Optional[Callable[[], Any]] = None) -> tuple[np.ndarray, list]:
+  """The step-and-read loop of the shell's free-running scenes (drop, turn, walk).
+
+  Steps the model `steps` times from its current state; before step i, `before_step(i)` sets
+  whatever the scene drives (controls, gravity, a released mass). After every `every`-th step
+  it records the mount joints and, if given, `read()` (contacts, the base's pose).
+
+  Returns:
+    (steps // every, 6) mount joints (m, rad) and the list of `read()` values.
+  """
+  adr = model_lib.mount_qpos_index(model)
+  poses, extra = [], []
+  for i in range(steps):
+    if before_step is not None:
+      before_step(i)
+    mujoco.mj_step(model, data)
+    if i % every == every - 1:
+      poses.append(data.qpos[adr].copy())
+      if read is not None:
+        extra.append(read())
+  return np.array(poses).reshape(-1, 6), extra

@@ -6,22 +6,25 @@ import dataclasses
 
 import numpy as np
 
-from benchmarks import footpad_data
-from sim import footpad
-
-DESCRIPTION = "generate and cache the footpad's training and test recordings (paper Sec. III)"
+from benchmarks import footpad
+from benchmarks.registry import register
 
 
+@register("footpad_dataset", "generate and cache the footpad's training and test recordings "
+          "(paper Sec. III)", settings=footpad.protocol_settings, fixed=footpad.FIXED,
+          tags=("footpad", "data"))
 def run(ctx) -> dict:
+  from sim import cache
+  from sim.footpad import protocol, scene as scene_lib
   out = {"recordings": {}, "timing": {}}
-  scenes = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)
-  for name, scene in scenes.items():
-    rec, timing = footpad.generate(scene, ctx.progress(f"{name} episodes"), ctx.use_cache)
+  scenes = protocol.scenes(ctx.settings)
+  for name, (rec, timing) in footpad.recordings(ctx).items():
     ranges = {ax: [float(rec.wrench[:, i].min()), float(rec.wrench[:, i].max())]
               for i, ax in enumerate("XYZ")}
     per_path = {p: int(np.sum(rec.path == i)) for i, p in enumerate(rec.meta["paths"])}
+    key = cache.content_key(scene_lib.cache_key(scenes[name]))
     out["recordings"][name] = {"samples": len(rec), "per_path": per_path,
-                               "force_range_N": ranges, "cache_key": footpad.cache_key(scene)}
+                               "force_range_N": ranges, "cache_key": key}
     ctx.print(f"{name}: {len(rec)} samples; " + ", ".join(
         f"F{ax} {lo:+.1f}..{hi:+.1f} N (range {hi - lo:.1f})" for ax, (lo, hi) in ranges.items()))
     for p, n in per_path.items():

@@ -1,7 +1,7 @@
 """collisions: the robot walks, hits a wall corner-first, follows it and meets a perpendicular
 wall (paper Sec. III-D, Fig. 11).
 
-One `sim.shell_walk` episode on the "course": at rest [I], walking at a 2 Hz stride, the
+One `sim.shell.walk` episode on the "course": at rest [I], walking at a 2 Hz stride, the
 shell's front-left corner meeting a side wall that closes in at 20 degrees [II], walking
 along it [III], and pushing into the wall across its path [IV]. The shell's counts at
 100 Hz are read through the cubic calibration of `shell_table1`. Beside them, as truth: the
@@ -18,21 +18,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks import shell_data
-from models import shell as model_lib
-from sim import shell_walk
+from benchmarks import shell
+from benchmarks.registry import register
 
-DESCRIPTION = "shell robot walking into a wall corner-first and head-on: force traces vs Fig. 11"
 PAPER = {"walking_amplitude": 0.15, "corner_fx": -0.2, "corner_fy": -0.2, "turn": "right",
          "end_wall_spike": -0.5, "pushing_range": [-0.5, -0.2]}
 DURATION = 9.0  # s: about 3 s of walking, 2 s along the side wall, 3 s against the end wall
 CORNER = 0.3  # s after the first touch that count as the corner hit
 
 
-def phases(run: shell_walk.WalkRun, walk: shell_walk.Walk) -> dict[str, np.ndarray]:
+def phases(run, walk) -> dict[str, np.ndarray]:
   """Frame masks of the paper's sections: rest [I], walking before any wall, the corner hit
   [II], along the side wall [III] and against the end wall [IV] (its first second is the
-  impact; `pushing` is the rest)."""
+  impact; `pushing` is the rest), of a `sim.shell.walk.WalkRun` of `walk`."""
   t = run.time
   side = np.flatnonzero(run.touching & 1)
   end = np.flatnonzero(run.touching & 2)
@@ -58,10 +56,15 @@ def _stride_extremes(f: np.ndarray, t: np.ndarray, stride: float) -> tuple[float
           float(np.median([f[k == j].min() for j in whole])))
 
 
+@register("collisions", "shell robot walking into a wall corner-first and head-on: force traces "
+          "vs Fig. 11", settings=shell.protocol_settings, fixed=shell.FIXED,
+          tags=("shell", "paper", "dynamics"))
 def run(ctx) -> dict:
-  cal = shell_data.calibrated(ctx)
-  walk = shell_walk.Walk(board=cal.board, wall="course", duration=DURATION, seed=ctx.seed)
-  r = shell_walk.simulate(walk)
+  from models import shell as model_lib
+  from sim.shell import walk as walk_lib
+  cal = shell.calibrated(ctx)
+  walk = walk_lib.Walk(board=cal.board, wall="course", duration=DURATION, seed=ctx.seed)
+  r = walk_lib.simulate(walk)
   f = cal.estimator.predict(r.counts)
   m = phases(r, walk)
   spring = model_lib.mount_stiffness(walk.board.params) * (r.mount - r.mount[m["rest"]].mean(0))

@@ -17,14 +17,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Literal
 
 import mujoco
 import numpy as np
 
-from models import shell as model_lib
-from sim import settings, shell
+from models import fields, shell as model_lib
+from models.fields import setting
+from sim.shell import scene as shell
 
-WALLS = ("none", "head_on", "course")
 # hips along x, m (assumed: front and rear legs near the 10 cm body's ends, the wheelbase
 # that keeps the front feet down while the shell's edge is pushed, 40 mm up)
 _HIP_X = (0.04, 0.0, -0.04)
@@ -32,6 +33,7 @@ _LEG_RADIUS = 0.001  # m, foot and spoke radius (assumed)
 _GROUND, _FEET = 1 << 1, 1 << 2  # contact bits: feet touch only the floor
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class Walk:
   """One walking episode: at rest, then walking straight ahead into the walls.
@@ -65,34 +67,31 @@ class Walk:
     seed: for the sensor chain's noise.
   """
   board: shell.ShellScene = shell.ShellScene()
-  wall: str = "head_on"
-  stride_hz: float = 2.0
-  weight: float = 0.7
-  friction: float = 0.7
-  leg_length: float = 0.015
-  sweep: float = math.radians(30)
-  leg_mass: float = 0.0005
-  crank_inertia: float = 1e-5
-  rest: float = 0.5
-  distance: float = 0.1
-  approach: float = math.radians(20)
-  follow: float = 0.12
-  duration: float = 5.0
-  seed: int = 0
+  wall: Literal["none", "head_on", "course"] = "head_on"
+  stride_hz: float = setting(2.0, "[0.1, 10]", "Hz")
+  weight: float = setting(0.7, "[0.1, 5]", "N")
+  friction: float = setting(0.7, "[0, 2]")
+  leg_length: float = setting(0.015, "[0.01, 0.05]", "m")
+  sweep: float = setting(math.radians(30), "[0.05, 1.2]", "rad")
+  leg_mass: float = setting(0.0005, "[1e-5, 0.01]", "kg")
+  crank_inertia: float = setting(1e-5, "[1e-7, 1e-3]", "kg m^2")
+  rest: float = setting(0.5, "[0, 10]", "s")
+  distance: float = setting(0.1, "[0, 5]", "m")
+  approach: float = setting(math.radians(20), "[0.1, 1.2]", "rad")
+  follow: float = setting(0.12, "[0.02, 5]", "m")
+  duration: float = setting(5.0, "[0.1, 60]", "s")
+  seed: int = setting(0, "[0, inf)")
+
+  def relations(self) -> fields.Relations:
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    legs = 6 * self.leg_mass + self.board.params.shell_mass + self.board.params.reflector_mass
+    yield (self.weight / 9.81 > legs, "weight",
+           f"> {legs * 9.81:.3f} N (legs, shell and reflector: the chassis needs some mass)",
+           self.weight)
 
   def validate(self) -> None:
-    self.board.params.validate()
-    if self.wall not in WALLS:
-      raise ValueError(f"wall={self.wall!r} is unknown: allowed {', '.join(WALLS)}")
-    settings.in_bounds(self, (("stride_hz", 0.1, 10), ("weight", 0.1, 5), ("friction", 0, 2),
-                              ("leg_length", 0.01, 0.05), ("sweep", 0.05, 1.2),
-                              ("leg_mass", 1e-5, 0.01), ("crank_inertia", 1e-7, 1e-3),
-                              ("rest", 0, 10), ("distance", 0, 5), ("approach", 0.1, 1.2),
-                              ("follow", 0.02, 5), ("duration", 0.1, 60)))
-    legs = 6 * self.leg_mass + self.board.params.shell_mass + self.board.params.reflector_mass
-    if self.weight / 9.81 <= legs:
-      raise ValueError(f"weight={self.weight!r} N leaves no mass for the chassis: allowed "
-                       f"> {legs * 9.81:.3f} N (legs, shell and reflector)")
+    """Raise ValueError naming the first setting outside its allowed range."""
+    fields.check(self)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -195,7 +194,6 @@ def simulate(walk: Walk) -> WalkRun:
   data = mujoco.MjData(model)
   dt = model.opt.timestep
   spf = shell.frame_steps(dt)
-  adr = model_lib.mount_qpos_index(model)
   shell_geom = model.geom("shell").id
   floor = model.geom("floor").id
   free = model.joint("chassis_free").qposadr[0]
@@ -206,17 +204,16 @@ def simulate(walk: Walk) -> WalkRun:
   for a in range(model.nu):
     data.qpos[model.jnt_qposadr[model.actuator_trnid[a, 0]]] = start[tripod[a]]
   centre = model_lib.elastic_centre(walk.board.params)
-  steps = int(round(walk.duration / dt))
-  poses, contact, feet, base, cranks, touching = [], [], [], [], [], []
   wall_bit = {g: 1 << int(model.geom(g).name[4:]) for g in range(model.ngeom)
               if model.geom(g).name.startswith("wall")}
   force6 = np.zeros(6)
-  for i in range(steps):
-    angles = crank_angle(walk, (i + 1) * dt)
-    data.ctrl[:] = angles[tripod]
-    mujoco.mj_step(model, data)
-    if i % spf != spf - 1:
-      continue
+  angles = [start]
+
+  def drive(i: int) -> None:
+    angles[0] = crank_angle(walk, (i + 1) * dt)
+    data.ctrl[:] = angles[0][tripod]
+
+  def read() -> tuple:
     total, foot, touch = np.zeros(6), np.zeros(3), 0
     rot = data.body("chassis").xmat.reshape(3, 3)
     ec = data.body("chassis").xpos + rot @ centre
@@ -233,17 +230,12 @@ def simulate(walk: Walk) -> WalkRun:
       elif floor in (con.geom1, con.geom2) and model.geom_contype[
           con.geom2 if con.geom1 == floor else con.geom1] == _FEET:
         foot += f_world if con.geom1 == floor else -f_world
-    poses.append(data.qpos[adr].copy())
-    contact.append(total)
-    feet.append(foot)
-    touching.append(touch)
     q = data.qpos[free + 3:free + 7]
     yaw = math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2))
-    base.append([*data.qpos[free:free + 3], yaw])
-    cranks.append(angles)
-  pose = np.array(poses)
+    return total, foot, touch, [*data.qpos[free:free + 3], yaw], angles[0]
+
+  pose, frames = shell.run_frames(model, data, int(round(walk.duration / dt)), spf, drive, read)
+  contact, feet, touching, base, cranks = (np.array(x) for x in zip(*frames))
   _, counts = shell.sense(walk.board, pose, walk.seed)
-  return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts,
-                 contact=np.array(contact), feet=np.array(feet), mount=pose,
-                 touching=np.array(touching), pose=np.array(base),
-                 crank=np.array(cranks))
+  return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts, contact=contact,
+                 feet=feet, mount=pose, touching=touching, pose=base, crank=cranks)

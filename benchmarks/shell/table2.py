@@ -18,11 +18,10 @@ import dataclasses
 
 import numpy as np
 
-from benchmarks import shell_data
-from sim import shell
+from benchmarks import shell
+from benchmarks.registry import register
 
-DESCRIPTION = "shell paper Table II: range and resolution (std at rest) per axis"
-AXES, PAPER_TABLE2 = shell_data.AXES, shell_data.PAPER_TABLE2
+AXES, PAPER_TABLE2 = shell.AXES, shell.PAPER_TABLE2
 NANO43 = {"force": (18.0, 0.0039), "torque": (0.25, 0.00005)}
 REST_FRAMES = 1000
 
@@ -37,16 +36,20 @@ def count_noise_equivalent(est, counts: np.ndarray, resolution: np.ndarray
   return (resolution / np.linalg.norm(jac, axis=1), resolution / np.abs(jac.sum(axis=1)))
 
 
+@register("shell_table2", "shell paper Table II: range and resolution (std at rest) per axis",
+          settings=shell.protocol_settings, fixed=shell.FIXED,
+          tags=("shell", "paper", "calibration"))
 def run(ctx) -> dict:
-  fit = shell_data.calibrated(ctx)
+  from sim.shell import scene as scene_lib
+  fit = shell.calibrated(ctx)
   runs, est = fit.runs, fit.estimator
   scene = fit.scenes["test"]
   rest_seed = int(np.random.SeedSequence(ctx.seed).generate_state(3)[2])
-  rest = shell.simulate(dataclasses.replace(scene, loading="rest", frames=REST_FRAMES,
-                                            seed=rest_seed))
+  rest, _ = scene_lib.generate(dataclasses.replace(scene, loading="rest", frames=REST_FRAMES,
+                                                   seed=rest_seed), use_cache=ctx.use_cache)
   resolution = np.std(est.predict(rest.counts), axis=0)
   span = np.ptp(runs["test"].wrench, axis=0)
-  unit = shell_data.PRINT_UNITS
+  unit = shell.PRINT_UNITS
   ctx.print(f"{'axis':5s} {'range':>16s} {'resolution':>18s}   (N or mN m; [paper], Nano43)")
   for i, a in enumerate(AXES):
     nano = NANO43["force" if i < 3 else "torque"]

@@ -20,44 +20,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks import shell_data
-from calibrate import metrics
-from sim import shell
+from benchmarks import shell
+from benchmarks.registry import register
 
-DESCRIPTION = "shell paper Table I: cubic calibration, median % error and worst % of range"
-AXES = shell_data.AXES
+AXES = shell.AXES
 PAPER_TABLE1 = {  # median % error, worst case % of range (test set, n = 42316)
     "Fx": (18, 20), "Fy": (18, 59), "Fz": (16, 25), "Mx": (15, 43), "My": (7.6, 19),
     "Mz": (11, 28)}
-PAPER_RANGE = {a: round(float(shell_data.PAPER_TABLE2[a][0] * u), 9)  # N, mN m
-               for a, u in zip(AXES, shell_data.PRINT_UNITS)}
+PAPER_RANGE = {a: round(float(shell.PAPER_TABLE2[a][0] * u), 9)  # N, mN m
+               for a, u in zip(AXES, shell.PRINT_UNITS)}
 
 
+@register("shell_table1", "shell paper Table I: cubic calibration, median % error and worst % "
+          "of range", settings=shell.protocol_settings, fixed=shell.FIXED,
+          tags=("shell", "paper", "calibration"))
 def run(ctx) -> dict:
-  fit = shell_data.calibrated(ctx)
+  from calibrate import metrics
+  fit = shell.calibrated(ctx)
   runs, est = fit.runs, fit.estimator
-  for name, scene in fit.scenes.items():
-    shell.to_recording(runs[name], scene).save(ctx.out / "recordings" / name)
+  for name, rec in runs.items():
+    rec.save(ctx.out / "recordings" / name)
   est.save(ctx.out / "estimator.npz")
-  steps = sum(r.steps for r in runs.values())
-  seconds = sum(r.seconds for r in runs.values())
+  steps = sum(s.frames * s.steps_per_frame for s in fit.scenes.values())
+  simulated = [t for t in fit.timings.values() if t is not None]
+  # wall time of the physics, when every run was simulated now rather than loaded
+  seconds = sum(t.simulate for t in simulated) if len(simulated) == len(runs) else None
   cal, test = runs["calibration"], runs["test"]
+  cal_out, test_out = (r.meta["out_of_window"] for r in (cal, test))
+  cal_bottom, test_bottom = (r.meta["bottomed"] for r in (cal, test))
   pred = est.predict(test.counts)
   median = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
                            metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
   worst = metrics.worst_pct_of_range(pred, test.wrench)
   ctx.print(f"calibration {len(cal.counts)} frames, test {len(test.counts)} frames; physics "
-            f"{steps:,} steps in {seconds:.1f} s ({steps / seconds:,.0f} steps/s)")
-  ctx.print(f"frames with a height outside 2-4 mm: calibration {cal.out_of_window:.1%}, test "
-            f"{test.out_of_window:.1%}; reflector at the PCB: {cal.bottomed:.1%} / "
-            f"{test.bottomed:.1%}")
+            f"{steps:,} steps " + (f"in {seconds:.1f} s ({steps / seconds:,.0f} steps/s)"
+                                   if seconds else "(recordings loaded from the cache)"))
+  ctx.print(f"frames with a height outside 2-4 mm: calibration {cal_out:.1%}, test "
+            f"{test_out:.1%}; reflector at the PCB: {cal_bottom:.1%} / {test_bottom:.1%}")
   ctx.print(f"fit rank {est.linear.rank} of {3 * cal.counts.shape[1] + 1}")
   ctx.print("Table I (test set)   " + " ".join(f"{a:>14s}" for a in AXES))
   ctx.print("median % error       " + " ".join(
       f"{m:6.2f} [{PAPER_TABLE1[a][0]:5.1f}]" for m, a in zip(median, AXES)))
   ctx.print("worst % of range     " + " ".join(
       f"{w:6.2f} [{PAPER_TABLE1[a][1]:5.1f}]" for w, a in zip(worst, AXES)))
-  rng = np.ptp(test.wrench, axis=0) * shell_data.PRINT_UNITS
+  rng = np.ptp(test.wrench, axis=0) * shell.PRINT_UNITS
   ctx.print("test range (N, mN m) " + " ".join(
       f"{r:6.2f} [{PAPER_RANGE[a]:5.1f}]" for r, a in zip(rng, AXES)))
   ctx.print("[paper in brackets; ranges from its Table II]")
@@ -68,6 +74,6 @@ def run(ctx) -> dict:
           "test_range": dict(zip(AXES, rng.tolist())),
           "frames": {k: len(r.counts) for k, r in runs.items()},
           "physics": {"steps": steps, "seconds": seconds},
-          "out_of_window": {k: r.out_of_window for k, r in runs.items()},
-          "bottomed": {k: r.bottomed for k, r in runs.items()},
+          "out_of_window": {k: r.meta["out_of_window"] for k, r in runs.items()},
+          "bottomed": {k: r.meta["bottomed"] for k, r in runs.items()},
           "effects": list(fit.board.effects)}

@@ -14,17 +14,11 @@ from __future__ import annotations
 
 import time
 
-import jax
-import jax.numpy as jnp
-import mujoco.minimize
 import numpy as np
-import scipy.optimize
 
-from benchmarks import footpad_data
-from calibrate import estimators, mlp
-from sim import footpad
+from benchmarks import footpad
+from benchmarks.registry import register
 
-DESCRIPTION = "LM for the footpad network: own vs jaxopt vs scipy vs mujoco.minimize"
 SAMPLES = 100_000
 QUICK_SAMPLES = 20_000
 
@@ -34,6 +28,8 @@ class _Reached(Exception):
 
 
 def _dense_jtj_seconds(rows: int, p: int, repeats: int = 5) -> float:
+  import jax
+  import jax.numpy as jnp
   j = jax.random.normal(jax.random.key(0), (rows, p), jnp.float64)
   f = jax.jit(lambda a: a.T @ a)
   f(j).block_until_ready()
@@ -71,9 +67,24 @@ def _race(name, run, val_mse, target, cap_s):
           "best_val_mse": state["best"]}
 
 
+@register("lm_solvers", "LM for the footpad network: own vs jaxopt vs scipy vs mujoco.minimize",
+          settings=footpad.protocol_settings, fixed=footpad.FIXED, tags=("footpad", "speed"))
 def run(ctx) -> dict:
-  scene = footpad_data.scenes(ctx.quick, ctx.seed, ctx.overrides)["train"]
-  rec, _ = footpad.generate(scene, ctx.progress("train episodes"), ctx.use_cache)
+  import jax
+  with jax.enable_x64(True):  # the race runs the network's building blocks in float64
+    return _run(ctx)
+
+
+def _run(ctx) -> dict:
+  import jax
+  import jax.numpy as jnp
+  import mujoco.minimize
+  import scipy.optimize
+
+  from calibrate import estimators, mlp
+  from sim.footpad import protocol, scene as scene_lib
+  scene = protocol.scenes(ctx.settings)["train"]
+  rec, _ = scene_lib.generate(scene, ctx.progress("train episodes"), ctx.use_cache)
   data = rec.on_path("asterisk")
   n_want = QUICK_SAMPLES if ctx.quick else SAMPLES
   pick = np.random.default_rng(np.random.SeedSequence([ctx.seed, 2])).permutation(len(data))

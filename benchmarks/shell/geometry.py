@@ -15,24 +15,31 @@ import time
 
 import numpy as np
 
-from models import shell
-from sim import settings, shell_geometry as geo
+from benchmarks.registry import register
 
-DESCRIPTION = "shell height map (rays) vs the paper's Eqn 3: rank, condition, slope sweep, speed"
 SWEEP = ((0.0, 0.0), (0.0, 0.3), (0.3, 0.0), (0.02, 0.02), (0.1, 0.1), (0.3, 0.3), (0.5, 0.5),
          (0.7, 0.7), (1.0, 1.0))
 
 
+def params_settings(quick: bool, seed: int):
+  """The shell's `ShellParams`, the root of this benchmark's --set keys."""
+  from models.shell import ShellParams
+  return ShellParams()
+
+
+@register("shell_geometry", "shell height map (rays) vs the paper's Eqn 3: rank, condition, "
+          "slope sweep, speed", settings=params_settings, tags=("shell", "design"))
 def run(ctx) -> dict:
-  params = settings.apply(shell.ShellParams(), ctx.overrides)
-  params.validate()
+  from models import shell
+  from sim.shell import geometry as geo
+  params = ctx.settings
   sim_map = geo.ray_jacobian(params)
   paper = shell.eqn3_matrix(params)
   diff = float(np.max(np.abs(sim_map - paper)) / np.max(np.abs(paper)))
   q_sim, q_paper = geo.map_quality(sim_map), geo.map_quality(paper)
-  np.set_printoptions(precision=4, suppress=True)
-  ctx.print(f"slopes c_x = {params.slope_x}, c_y = {params.slope_y}; height map, rays "
-            f"(columns x, y, z, theta_x, theta_y, theta_z; m/m and m/rad):\n{sim_map}")
+  with np.printoptions(precision=4, suppress=True):
+    ctx.print(f"slopes c_x = {params.slope_x}, c_y = {params.slope_y}; height map, rays "
+              f"(columns x, y, z, theta_x, theta_y, theta_z; m/m and m/rad):\n{sim_map}")
   ctx.print(f"largest difference from Eqn 3: {diff:.2e} of its largest entry")
   ctx.print(f"rank {q_sim.rank} (Eqn 3: {q_paper.rank}), condition {q_sim.condition:.1f} "
             f"(Eqn 3: {q_paper.condition:.1f})")

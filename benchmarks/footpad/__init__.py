@@ -1,0 +1,22 @@
+"""Benchmarks of the MIT Cheetah footpad (LSANN paper): its data protocol, Table I, the
+kernels, speed, and the Levenberg-Marquardt solvers."""
+
+from __future__ import annotations
+
+# Settings the paper's protocol sets itself, with the reason a --set of them is refused.
+FIXED = {"paths": "the protocol runs the paper's training and test paths",
+         "seed": "use --seed"}
+
+
+def protocol_settings(quick: bool, seed: int):
+  """The footpad protocol's scene (`sim.footpad.protocol.base`), the root of --set keys."""
+  from sim.footpad import protocol
+  return protocol.base(quick, seed)
+
+
+def recordings(ctx) -> dict:
+  """{"train", "test"} recordings of the protocol with the run's settings, from the cache
+  when simulated before."""
+  from sim.footpad import protocol, scene
+  return {name: scene.generate(s, ctx.progress(f"{name} episodes"), ctx.use_cache)
+          for name, s in protocol.scenes(ctx.settings).items()}

@@ -1,0 +1,123 @@
+"""The benchmark registry, in the style of dm_control's suite: each benchmark module registers
+its run functions with `register`, and `all_benchmarks` imports the modules of the rig
+packages (`benchmarks.footpad`, `benchmarks.shell`) to collect them, so the list of names is
+never written twice.
+
+Benchmark modules import nothing heavy at module level (no JAX, no MuJoCo): the command's
+`--help` and `--list` import them all.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import pathlib
+import pkgutil
+import sys
+from typing import Any, Callable, Mapping, Optional
+
+Progress = Callable[[int, int], None]
+RIGS = ("footpad", "shell")
+
+
+@dataclasses.dataclass(frozen=True)
+class Context:
+  """What a benchmark gets from the command line.
+
+  Attributes:
+    quick: small data, for a run in seconds to minutes.
+    seed: one integer for every random draw.
+    out: the results folder.
+    settings: the benchmark's settings (`Benchmark.settings`) with the user's --set applied.
+    overrides: the --set text as typed, for the report.
+    use_cache: load recordings simulated before.
+    show_progress: draw progress bars.
+  """
+  quick: bool
+  seed: int
+  out: pathlib.Path
+  settings: Any
+  overrides: Mapping[str, str] = dataclasses.field(default_factory=dict)
+  use_cache: bool = True
+  show_progress: bool = True
+
+  def print(self, *args) -> None:
+    print(*args, flush=True)
+
+  def progress(self, label: str) -> Optional[Progress]:
+    """A progress callback for library code: a tqdm bar if installed, else a status line."""
+    if not self.show_progress:
+      return None
+    try:
+      from tqdm import tqdm
+    except ImportError:
+      def line(done: int, total: int) -> None:
+        end = "\n" if done == total else ""
+        print(f"\r{label}: {done}/{total}", end=end, file=sys.stderr, flush=True)
+      return line
+    bar = {}
+
+    def update(done: int, total: int) -> None:
+      if "b" not in bar:
+        bar["b"] = tqdm(total=total, desc=label, file=sys.stderr, leave=False)
+      bar["b"].update(done - bar["b"].n)
+      if done == total:
+        bar["b"].close()
+    return update
+
+
+@dataclasses.dataclass(frozen=True)
+class Benchmark:
+  """A registered benchmark.
+
+  Attributes:
+    name: what the command takes.
+    description: one line for --list.
+    run: run(ctx) -> dict of results for metrics.json.
+    settings: settings(quick, seed) -> the dataclass that --set keys name (imports the
+      simulation only when called).
+    fixed: keys the benchmark sets itself, with the reason a --set of them is refused.
+    tags: the rig and what kind of benchmark it is.
+    doc: the module's docstring, for NAME --help.
+  """
+  name: str
+  description: str
+  run: Callable[[Context], dict]
+  settings: Callable[[bool, int], Any]
+  fixed: Mapping[str, str]
+  tags: tuple[str, ...]
+  doc: str
+
+
+_REGISTRY: dict[str, Benchmark] = {}
+
+
+def register(name: str, description: str, *, settings: Callable[[bool, int], Any],
+             fixed: Optional[Mapping[str, str]] = None, tags: tuple[str, ...] = ()):
+  """Decorator: registers run(ctx) under `name`."""
+  def add(run: Callable[[Context], dict]) -> Callable[[Context], dict]:
+    if name in _REGISTRY:
+      raise ValueError(f"benchmark {name!r} is registered twice")
+    # a functools.partial carries its function's module
+    module = sys.modules.get(getattr(getattr(run, "func", run), "__module__", ""), None)
+    _REGISTRY[name] = Benchmark(name, description, run, settings, dict(fixed or {}),
+                                tuple(tags), (getattr(module, "__doc__", None) or "").strip())
+    return run
+  return add
+
+
+def all_benchmarks() -> dict[str, Benchmark]:
+  """Every registered benchmark, by name, in the order the rig packages register them."""
+  for rig in RIGS:
+    package = importlib.import_module(f"benchmarks.{rig}")
+    for info in pkgutil.iter_modules(package.__path__):
+      importlib.import_module(f"benchmarks.{rig}.{info.name}")
+  return dict(_REGISTRY)
+
+
+def get(name: str) -> Benchmark:
+  """The benchmark `name`; ValueError listing the known names otherwise."""
+  known = all_benchmarks()
+  if name not in known:
+    raise ValueError(f"unknown benchmark {name!r}: allowed {', '.join(known)}")
+  return known[name]

@@ -1,0 +1,62 @@
+"""Benchmarks of the VelociRoACH force-sensing shell: the paper's Tables I and II, its step,
+gravity and collision experiments, and the reflector geometry; with the calibration they
+share."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Optional
+
+import numpy as np
+
+AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+PRINT_UNITS = np.array([1, 1, 1, 1e3, 1e3, 1e3])  # SI to the paper's N and mN m
+# the paper's Table II, SkinProc row: range, resolution (N and N m)
+PAPER_TABLE2 = {"Fx": (2.3, 0.0054), "Fy": (2.1, 0.0167), "Fz": (1.9, 0.0051),
+                "Mx": (0.096, 0.00072), "My": (0.127, 0.00025), "Mz": (0.138, 0.00044)}
+# Settings the protocol sets itself, with the reason a --set of them is refused.
+FIXED = {"frames": "the protocol runs the paper's frame counts (a tenth with --quick)",
+         "seed": "use --seed"}
+
+
+def protocol_settings(quick: bool, seed: int):
+  """The shell protocol's scene (`sim.shell.protocol.base`), the root of --set keys."""
+  from sim.shell import protocol
+  return protocol.base(quick, seed)
+
+
+@dataclasses.dataclass(frozen=True)
+class Calibration:
+  """The shell runs of one benchmark and the fit made from them.
+
+  Attributes:
+    scenes: {"calibration", "test"} scenes (`sim.shell.protocol.scenes`); the calibration's
+      is the board every other shell scene of the run is read with.
+    runs: their recordings.
+    timings: their simulation timings (None where loaded from the cache).
+    estimator: the polynomial pseudoinverse (s, s^2, s^3 of each sensor, paper Eqns 4-9)
+      fitted on the calibration run: counts -> (Fx, Fy, Fz, Mx, My, Mz).
+  """
+  scenes: dict[str, Any]
+  runs: dict[str, Any]
+  timings: dict[str, Any]
+  estimator: Any
+
+  @property
+  def board(self):
+    return self.scenes["calibration"]
+
+
+def calibrated(ctx, board: Optional[Any] = None) -> Calibration:
+  """Runs the protocol's scenes for `board` (default the run's settings) and fits the cubic
+  calibration on the calibration run."""
+  from calibrate import estimators
+  from sim.shell import protocol, scene as scene_lib
+  scenes = protocol.scenes(ctx.settings if board is None else board, ctx.quick, ctx.seed)
+  runs, timings = {}, {}
+  for name, scene in scenes.items():
+    runs[name], timings[name] = scene_lib.generate(scene, ctx.progress(f"{name} frames"),
+                                                   ctx.use_cache)
+  cal = runs["calibration"]
+  return Calibration(scenes, runs, timings,
+                     estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench))

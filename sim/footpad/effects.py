@@ -1,0 +1,55 @@
+"""The footpad's named effects: every non-ideality its scenes can ask for (`sim.effects`)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from sim.effects import Effect, Kind
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in [
+    Effect("friction", Kind.MODEL,
+           "Coulomb friction between pad and plate (condim 3, elliptic cone), coefficient "
+           "FootpadParams.friction = 0.9: 0.8-1 reproduces the paper's ~220 N shear ranges "
+           "(DESIGN.md, measured). Off: frictionless contact, no shear."),
+    Effect("viscoelastic", Kind.MODEL,
+           "Stress relaxation of the polyurethane: a standard linear solid per element and "
+           "axis (the element spring in parallel with a Maxwell arm of stiffness "
+           "relaxation_fraction * k and time constant relaxation_time). Rubber relaxes in "
+           "shear (its bulk response is nearly elastic), so the shear springs relax alike, "
+           "and the bonded layer's normal stiffness, which its shear modulus sets, too. "
+           "Magnitudes are assumed (20 % over 1 s, of the order reported for soft cast "
+           "polyurethanes); no datasheet gives them for Vytaflex 20."),
+    Effect("p_delta", Kind.STRESS,
+           "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "
+           "contact face has moved, sideways by each element's shear deflection u and towards "
+           "the PCB by its compression q_z, so each element adds a couple f_z u - f_t q_z "
+           "(N m) about its patch, carried to the dies by the same layer model "
+           "(`sim.layer.couple_kernel`); the small-strain kernel alone balances the PCB's "
+           "moment in the undeformed geometry. No free parameter: the size follows from the "
+           "simulated deflections. On the default pad f_z u is 0.77 of the shear's own moment "
+           "f_t h at 210 N (u = f_t / k_t, k_t = 21 kN/m, h = 13 mm) and the X column "
+           "difference per newton of shear grows x1.46, x1.91, x2.36 at 70, 140, 210 N "
+           "(measured): the dies, 1 mm above the PCB, feel a couple on the face more than the "
+           "same moment delivered by shear. First order in u; a geometrically nonlinear "
+           "solution of the layer would pin the split down."),
+    Effect("sensor_noise", Kind.SIGNAL,
+           "White noise of the pressure sensor and ADC, in counts rms (default 1.5). Assumed: "
+           "MPXH6400A output noise plus MCP3208 transition noise (datasheet: +-1 LSB INL) on an "
+           "unshielded board; replace with a value measured at rest on your rig."),
+    Effect("gain_offset_spread", Kind.SIGNAL,
+           "Unit-to-unit spread of each die's sensitivity and offset after the casing is "
+           "machined off and the die is cast in rubber: gain x N(1, 0.10), offset N(0, 3 kPa). "
+           "Assumed; the datasheet's +-1.5 % VFSS holds only for unaltered sensors."),
+    Effect("adc_quantisation", Kind.SIGNAL,
+           "12-bit conversion (MCP3208): counts are floored to integers."),
+    Effect("adc_saturation", Kind.SIGNAL,
+           "Output limits: the MPXH6400A output saturates at its full-scale 400 kPa absolute "
+           "(datasheet range 20-400 kPa) and the ADC clips at its reference (AdcConfig.vref): "
+           "~299 kPa gauge with a 5 V reference, ~175 kPa with 3.3 V."),
+    Effect("ft_noise", Kind.SIGNAL,
+           "Noise of the ATI Delta SI-660-60 plate: 1/8 N rms on Fx, Fy, 1/4 N on Fz (ATI's "
+           "stated resolution for that calibration) and 0.0075 N m on torques (assumed)."),
+]}
+
+# The names a scene's `effects` field takes.
+EffectName = Literal[tuple(EFFECTS)]

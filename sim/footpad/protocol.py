@@ -1,0 +1,30 @@
+"""The LSANN paper's data protocol (Sec. III-B, III-C): the training and test recordings."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from sim.footpad import scene as scene_lib
+
+TRAIN_PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular")
+TEST_PATHS = ("test_path_1", "test_path_2")
+# Every effect of the paper's bench whose magnitude has a stated source (p_delta has no free
+# parameter); the assumed viscoelastic relaxation stays opt-in (--set effects=...).
+DEFAULT_EFFECTS = ("friction", "p_delta", "sensor_noise", "gain_offset_spread",
+                   "adc_quantisation", "adc_saturation", "ft_noise")
+QUICK_Z_LEVELS = (0.0005, 0.001, 0.0015)
+
+
+def base(quick: bool, seed: int) -> scene_lib.FootpadScene:
+  """The protocol's scene before the user's settings; --quick runs three Z levels instead of
+  the paper's sixteen."""
+  return scene_lib.FootpadScene(effects=DEFAULT_EFFECTS, seed=seed,
+                                z_levels=QUICK_Z_LEVELS if quick else scene_lib.PAPER_Z_LEVELS)
+
+
+def scenes(scene: scene_lib.FootpadScene) -> dict[str, scene_lib.FootpadScene]:
+  """{"train": ..., "test": ...}: `scene` (from `base`, with the user's settings) on the
+  paper's training and test paths."""
+  scene.validate()
+  return {"train": dataclasses.replace(scene, paths=TRAIN_PATHS),
+          "test": dataclasses.replace(scene, paths=TEST_PATHS)}
