@@ -36,18 +36,18 @@ class FootpadParams:
 
   Attributes:
     grid: number of bristle elements along (X, Y). 6x8 keeps elements near square on the
-      32x39 mm board and runs at ~5-7k steps/s (DESIGN.md, measured).
+      32x39 mm board and runs at ~5-7k steps/s (measured here).
     footprint: pad size along (X, Y), m. The paper's PCB is 32 mm x 39 mm (Sec. II-A).
     thickness: rubber thickness between PCB and contact face, m. Not given in the paper; 13 mm
       is where the finite-element block (bonded to the PCB, face stuck to the plate, the same
       model that gives the die kernel) presses with the paper's ~221 N at the deepest 1.5 mm
-      training indentation (Sec. III-B, DESIGN.md): 144 kN/m, 2.06 x E*A/h because a bonded
+      training indentation (Sec. III-B; measured here): 144 kN/m, 2.06 x E*A/h because a bonded
       near-incompressible layer cannot bulge freely. A 6 mm block, the earlier assumption
       from E*A/h alone, is 4.5 x E*A/h in that model (~1020 N at 1.5 mm).
     youngs_modulus: Vytaflex 20 (Shore 20A), Pa; 0.73 MPa from Gent's relation.
     poisson_ratio: polyurethane rubber is nearly incompressible; 0.49.
     friction: Coulomb coefficient pad/plate. 0.8-1 is needed for the paper's ~220 N shear
-      ranges (DESIGN.md, measured); 0.9 by default.
+      ranges (measured here); 0.9 by default.
     crown_radius: radius of a spherical crown of the contact face, m; inf for a flat pad.
     density: rubber density, kg/m^3 (Vytaflex 20: specific gravity ~1.0, Smooth-On data);
       sets the lumped mass of each element's rubber column.

@@ -32,14 +32,14 @@ class ShellParams:
 
   Attributes:
     slope_x, slope_y: reflector slopes c_x, c_y (rise over run) of P3/P7 and P1/P5. Not
-      given in the paper; 0.3 assumed (DESIGN.md: the map's condition number falls from 143
-      at 0.02 to ~6 at 0.5).
+      given in the paper; 0.3 assumed (the map's condition number falls from 143
+      at 0.02 to ~6 at 0.5; `shell_geometry` prints it).
     spring_rate: axial rate of each coil spring, N/m (paper Sec. II-A: ~150 N/m).
     spring_height: working height of the springs, m (paper: 1.5 cm).
     spring_diameter: mean coil diameter, m (paper: 1.0 cm, taken as the mean diameter).
     spring_poisson: Poisson's ratio of the spring steel (0.3), which sets E/G = 2(1 + nu).
     spring_xy: (x, y) of the four springs about the elastic centre, m (assumed (+-30, +-20)
-      mm, DESIGN.md).
+      mm: the paper gives no spacing).
     gap: design height of every reflector above its sensor at rest under gravity, m; 3 mm,
       the middle of the photointerrupter's 2-4 mm fitted window (paper Fig. 4).
     damping_ratio: damping ratio of each mount joint about its own inertia (assumed 0.05:
@@ -57,7 +57,7 @@ class ShellParams:
     mount_friction: for the `spring_hysteresis` effect, Coulomb friction of the mount's
       slides (N) and hinges (N m); assumed 1 % of the hand loads' range.
     timestep: simulation step, s (the joint springs are explicit: keep it <= 2 ms,
-      DESIGN.md).
+      measured here).
   """
   slope_x: float = setting(0.3, "[-2, 2]")
   slope_y: float = setting(0.3, "[-2, 2]")
@@ -274,7 +274,7 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
     shell.add_geom(name=f"facet{i + 1}", type=mujoco.mjtGeom.mjGEOM_MESH,
                    meshname=f"facet{i + 1}", contype=0, conaffinity=0,
                    group=REFLECTOR_GROUP, mass=1e-5, rgba=[0.95, 0.95, 0.9, 1])
-  if contacts:  # the shell rides on its springs, never on the chassis (DESIGN.md pitfall)
+  if contacts:  # the shell rides on its springs, never on the chassis, which would bypass them
     spec.add_exclude(bodyname1="chassis", bodyname2="shell")
   spec.add_sensor(name="ft_force", type=mujoco.mjtSensor.mjSENS_FORCE,
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")

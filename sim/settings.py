@@ -118,12 +118,12 @@ def parse(text: str, tp) -> Any:
     for c in choices:
       if text == str(c):
         return c
-    raise ValueError("not one of the choices")
+    raise ValueError(f"{text!r} is not one of the choices")
   if isinstance(tp, type) and issubclass(tp, enum.Enum):
     try:
       return tp(text)
     except ValueError:
-      raise ValueError("not one of the choices") from None
+      raise ValueError(f"{text!r} is not one of the choices") from None
   if tp is bool:
     if text.lower() in _TRUE:
       return True

@@ -10,7 +10,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
     Effect("friction", Kind.MODEL,
            "Coulomb friction between pad and plate (condim 3, elliptic cone), coefficient "
            "FootpadParams.friction = 0.9: 0.8-1 reproduces the paper's ~220 N shear ranges "
-           "(DESIGN.md, measured). Off: frictionless contact, no shear."),
+           "(measured here). Off: frictionless contact, no shear."),
     Effect("viscoelastic", Kind.MODEL,
            "Stress relaxation of the polyurethane: a standard linear solid per element and "
            "axis (the element spring in parallel with a Maxwell arm of stiffness "

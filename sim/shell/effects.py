@@ -10,7 +10,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
     Effect("out_of_window", Kind.SIGNAL,
            "The photointerrupter's response outside the 2-4 mm window the 1/r law is fitted "
            "on: below ~2 mm the 12-bit ADC clips at 4095, below the ~0.8 mm peak the response "
-           "falls towards zero (paper Fig. 4, DESIGN.md). Off: the ideal a/r + b at every "
+           "falls towards zero (the peak position, Photointerrupter.peak, is assumed). Off: the ideal a/r + b at every "
            "height (still clipped to the ADC's range)."),
     Effect("ray_miss", Kind.SIGNAL,
            "A sensor whose line of sight passes beside its reflector facet (a square of "

@@ -3,8 +3,8 @@
 The reflected intensity, after the SkinProc's current-to-voltage amplifier and 12-bit ADC,
 follows s = a / r + b over the 2-4 mm window the paper fits (Sec. II-B, Eqns 1-2; Fig. 4:
 ~3900 counts at 2 mm, ~1975 at 4 mm). Nearer than that the detector's field of view and the
-emitter's beam stop overlapping on the reflector, so the response peaks (~0.8 mm, the GP2S60
-datasheet's relative output against distance) and falls to zero at contact; here that is the factor 1 - exp(-(r / r_c)^2), which peaks at
+emitter's beam stop overlapping on the reflector, so the response peaks (at an assumed
+~0.8 mm: it shapes the counts only below the 2 mm window) and falls to zero at contact; here that is the factor 1 - exp(-(r / r_c)^2), which peaks at
 r = 1.121 r_c and departs from 1/r by under 0.05 % above 2 mm. `fit_inverse_r` is the paper's
 Eqn 1 for users' own height sweeps, `range_from_counts` its Eqn 2.
 """
