@@ -5,9 +5,9 @@ on the footpad's Asterisk training samples, from one Nguyen-Widrow start point. 
 LM with MATLAB trainlm's damping runs to its validation stop; its best validation MSE becomes
 the target, and each solver reports the time and iterations it needs to reach it (capped):
 the project's LM again with Nielsen's gain-ratio damping, jaxopt's LM, scipy's MINPACK LM and
-`mujoco.minimize`. Per-iteration time of the
-project's LM is compared with the dense J^T J product (J of shape (N*3, 103)) timed in the
-same run. Times exclude JIT compilation, which is reported separately.
+`mujoco.minimize`. Per-iteration time of the project's LM is compared with the dense J^T J
+product (J of shape (N*3, 103)) timed in the same run. Times exclude JIT compilation, which is
+reported separately. The whole race runs with JAX's 64-bit types on.
 """
 
 from __future__ import annotations

@@ -2,14 +2,13 @@
 
 Paper Sec. III-B, Figs. 8-9; the scene is `sim.shell.turn` (gravity turned in the chassis
 frame through legs down, nose up, legs up, ... the sequence A-I, 10 s per turn). The shell's
-reading, calibrated by the
-cubic fit of `shell_table1`, divided by 50 g is compared with the accelerometer (gravity in
-the chassis frame, as an accelerometer at rest reports it): mean mass |F| / |g|, mean angle
-between the vectors, and the shell's |A_z| legs up. The shell's own 9.7 g is tared legs down,
-so turning it adds up to twice its weight to the reading (measured: |A_z| 13.6 m/s^2 legs up,
-(50 + 2 x 9.7) / 50 x g). The calibration is run twice: on loads in
-every direction, and with the paper's bias (mostly downward pushes, `downward_bias` 0.8),
-which the paper blames for reading about half when inverted.
+reading, calibrated by the cubic fit of `shell_table1`, divided by 50 g is compared with the
+accelerometer (gravity in the chassis frame, as an accelerometer at rest reports it): mean
+mass |F| / |g|, mean angle between the vectors, and the shell's |A_z| legs up. The shell's
+own 9.7 g is tared legs down, so turning it adds up to twice its weight to the reading
+(measured: |A_z| 13.6 m/s^2 legs up, (50 + 2 x 9.7) / 50 x g). The calibration is run twice:
+on loads in every direction, and with the paper's bias (mostly downward pushes,
+`downward_bias` 0.8), which the paper blames for reading about half when inverted.
 """
 
 from __future__ import annotations
