@@ -32,6 +32,7 @@ class Context:
     overrides: the --set text as typed, for the report.
     use_cache: load recordings simulated before.
     show_progress: draw progress bars.
+    executor: where sweeps run their points (`benchmarks.executors.ExecutorSpec`).
   """
   quick: bool
   seed: int
@@ -40,6 +41,12 @@ class Context:
   overrides: Mapping[str, str] = dataclasses.field(default_factory=dict)
   use_cache: bool = True
   show_progress: bool = True
+  executor: Any = None
+
+  def __post_init__(self):
+    if self.executor is None:
+      from benchmarks import executors
+      object.__setattr__(self, "executor", executors.ExecutorSpec())
 
   def print(self, *args) -> None:
     print(*args, flush=True)

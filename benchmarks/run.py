@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Optional
 
-from benchmarks import registry
+from benchmarks import executors, registry
 
 
 def _parse_sets(items: list[str]) -> dict[str, str]:
@@ -49,6 +49,20 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                       help="change a setting, e.g. params.friction=0.8, adc.vref=5, "
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
                            "--help)")
+  parser.add_argument("--executor", choices=("processes", "serial", "dask"), default="processes",
+                      help="where a sweep's points run: local processes on every core "
+                           "(default), this process, or Dask (an optional extra: pip install "
+                           "-e '.[cluster]'); without --address Dask starts a LocalCluster "
+                           "listening on 127.0.0.1 only")
+  parser.add_argument("--workers", type=int, default=None,
+                      help="processes or Dask workers for a sweep (default: one per core)")
+  parser.add_argument("--address", default=None,
+                      help="join a running Dask scheduler (tls://HOST:PORT, or tcp:// on a "
+                           "trusted network); TLS certificates come from Dask's configuration "
+                           "(distributed.comm.tls) or --tls-ca-file/--tls-cert/--tls-key")
+  parser.add_argument("--tls-ca-file", default=None, help="Dask TLS: CA certificate")
+  parser.add_argument("--tls-cert", default=None, help="Dask TLS: client certificate")
+  parser.add_argument("--tls-key", default=None, help="Dask TLS: client key")
   parser.add_argument("--no-cache", action="store_true", help="simulate even if cached")
   parser.add_argument("--no-progress", action="store_true", help="no progress bars")
   return parser
@@ -106,13 +120,19 @@ def main(argv: Optional[list[str]] = None) -> int:
   except ValueError as err:  # a setting out of range: one line, no traceback
     print(f"error: {err}", file=sys.stderr)
     return 2
+  if args.workers is not None and not 1 <= args.workers <= 1024:
+    parser.error(f"--workers {args.workers} is out of range: allowed 1 to 1024")
+  if args.address and args.executor != "dask":
+    parser.error("--address joins a Dask scheduler: add --executor dask")
   out = args.out or pathlib.Path("results") / args.name
+  spec = executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
+                                args.tls_cert, args.tls_key)
   ctx = registry.Context(args.quick, args.seed, out, applied, overrides, not args.no_cache,
-                         not args.no_progress)
+                         not args.no_progress, spec)
   t0 = time.perf_counter()
   try:
     result = bench.run(ctx)
-  except ValueError as err:  # a setting out of range found while running: one line
+  except (ValueError, executors.ExecutorError) as err:  # the user's to fix: one line
     print(f"error: {err}", file=sys.stderr)
     return 2
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,

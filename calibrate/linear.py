@@ -45,7 +45,10 @@ class LinearFit:
     """(N, C * degree) standardised counts and their powers; dropped channels give 0."""
     v = check_array(v, "counts", self.mean.shape[0])
     z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
-    return np.concatenate([z**d for d in range(1, self.degree + 1)], axis=1)
+    powers = [z]
+    for _ in range(1, self.degree):  # products, not pow(): several times faster
+      powers.append(powers[-1] * z)
+    return np.concatenate(powers, axis=1)
 
   def predict(self, v: np.ndarray) -> np.ndarray:
     """(N, A) forces from (N, C) counts."""
@@ -119,7 +122,9 @@ def fit_linear(v: np.ndarray, f: np.ndarray, degree: int = 1, method: Method = M
 def _lstsq(a: np.ndarray, f: np.ndarray, method: Method, rcond: float):
   """Solution of a @ x ~ f (QR: basic, SVD: minimum-norm; equal at full rank) and its rank."""
   if method is Method.QR:
-    q, r, perm = scipy.linalg.qr(a, mode="economic", pivoting=True)
+    # a is this module's own finite feature matrix: no copy, no second finiteness scan
+    q, r, perm = scipy.linalg.qr(a, mode="economic", pivoting=True, overwrite_a=True,
+                                 check_finite=False)
     d = np.abs(np.diag(r))
     rank = int(np.sum(d > rcond * d[0]))
     sol = np.zeros((a.shape[1], f.shape[1]))

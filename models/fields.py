@@ -22,7 +22,7 @@ import math
 import re
 import types
 import typing
-from typing import Any, Iterator, Optional
+from typing import Any, Iterator, Mapping, Optional
 
 import numpy as np
 
@@ -227,3 +227,31 @@ def require(ok: bool, name: str, allowed_text: str, value: Any) -> None:
 
 Relation = tuple[bool, str, str, Any]
 Relations = Iterator[Relation]
+
+
+def build(cls: type, data: Mapping[str, Any]) -> Any:
+  """The dataclass `cls` from `dataclasses.asdict` output that went through JSON (lists back
+  to tuples, enums from their values, nested dataclasses rebuilt); missing fields keep their
+  defaults. The result is not checked: call `check` on it."""
+  hints = types_of(cls)
+  kwargs = {}
+  for f in dataclasses.fields(cls):
+    if f.name in data:
+      kwargs[f.name] = _rebuild(hints[f.name], data[f.name], f)
+  return cls(**kwargs)
+
+
+def _rebuild(tp, value, f=None):
+  inner, _ = optional(tp)
+  if value is None:
+    return None
+  if dataclasses.is_dataclass(inner):
+    return build(inner, value)
+  if isinstance(inner, type) and issubclass(inner, enum.Enum):
+    return inner(value)
+  if typing.get_origin(inner) is tuple:
+    args = typing.get_args(inner)
+    if len(args) == 2 and args[1] is Ellipsis:
+      return tuple(_rebuild(args[0], v) for v in value)
+    return tuple(_rebuild(a, v) for a, v in zip(args, value))
+  return value

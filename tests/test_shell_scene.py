@@ -96,7 +96,7 @@ def test_in_window_targets_keep_static_heights_inside():
   rng = np.random.default_rng(1)
   scene = dataclasses.replace(SMALL, force_range=1.0, torque_range=0.06)
   box = rng.uniform(-1, 1, (500, 6)) * np.array([1, 1, 1, 0.06, 0.06, 0.06])
-  scaled = box * shell._window_scale(scene.params, box, scene.sensor)[:, None]
+  scaled = box * shell.window_scale(scene.params, box, scene.sensor)[:, None]
   h = shell.heights_from_pose(scene.params, shell.static_pose(scene.params, scaled))
   lo, hi = scene.sensor.window
   assert np.all((h >= lo - 1e-9) & (h <= hi + 1e-9))

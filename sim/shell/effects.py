@@ -15,7 +15,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
     Effect("ray_miss", Kind.SIGNAL,
            "A sensor whose line of sight passes beside its reflector facet (a square of "
            "ShellParams.reflector_size, 5 mm assumed, in the shell frame) sees no reflector "
-           "and reads its dark offset b, as MuJoCo's rays do (`sim.shell_geometry.heights` "
+           "and reads its dark offset b, as MuJoCo's rays do (`sim.shell.geometry.heights` "
            "with finite_facets). No free parameter beyond the facet's size."),
     Effect("sensor_noise", Kind.SIGNAL,
            "White noise of the photointerrupter, amplifier and ADC: 1 count rms, the paper's "

@@ -21,16 +21,48 @@ from models.shell import ShellParams
 
 def rotation(angles: np.ndarray) -> np.ndarray:
   """(..., 3, 3) rotation of the mount's hinge chain: about x, then the turned y, then z."""
-  a = np.asarray(angles, dtype=float)
-  c, s = np.cos(a), np.sin(a)
-  one, zero = np.ones_like(a[..., 0]), np.zeros_like(a[..., 0])
-  rx = np.stack([one, zero, zero, zero, c[..., 0], -s[..., 0], zero, s[..., 0], c[..., 0]],
-                axis=-1).reshape(a.shape[:-1] + (3, 3))
-  ry = np.stack([c[..., 1], zero, s[..., 1], zero, one, zero, -s[..., 1], zero, c[..., 1]],
-                axis=-1).reshape(a.shape[:-1] + (3, 3))
-  rz = np.stack([c[..., 2], -s[..., 2], zero, s[..., 2], c[..., 2], zero, zero, zero, one],
-                axis=-1).reshape(a.shape[:-1] + (3, 3))
-  return rx @ ry @ rz
+  return rotation_xp(np, np.asarray(angles, dtype=float))
+
+
+def rotation_xp(xp, angles):
+  """(..., 3, 3) `rotation(angles)` in the array module xp (numpy or jax.numpy), written out."""
+  c, s = xp.cos(angles), xp.sin(angles)
+  cx, cy, cz = c[..., 0], c[..., 1], c[..., 2]
+  sx, sy, sz = s[..., 0], s[..., 1], s[..., 2]
+  rows = [[cy * cz, -cy * sz, sy],
+          [cx * sz + sx * sy * cz, cx * cz - sx * sy * sz, -sx * cy],
+          [sx * sz - cx * sy * cz, sx * cz + cx * sy * sz, cx * cy]]
+  if xp is np:  # filled in place: stacking nine arrays costs more than computing them
+    out = np.empty(angles.shape[:-1] + (3, 3))
+    for i, row in enumerate(rows):
+      for j, v in enumerate(row):
+        out[..., i, j] = v
+    return out
+  return xp.stack([xp.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def plane_heights(xp, slopes, sensors, gap, rot, trans, centre):
+  """(..., 8) heights above the sensors of the facet planes turned by `rot` about `centre`
+  and moved by `trans`.
+
+  The closed form, written so that it runs on numpy and, differentiable in every argument,
+  on jax.numpy: a facet through p0 = sensor + (0, 0, gap) with normal n0 = (-s_x, -s_y, 1)
+  meets the sensor's vertical at h = [n0 . (p0 - c) + (R n0) . (c + t - sensor)] / (R n0)_z,
+  since (R n0) . R (p0 - c) = n0 . (p0 - c); every term is a small matrix product over the
+  frames.
+
+  Args:
+    xp: the array module.
+    slopes: (8, 2) facet slopes.  sensors: (8, 3) sensor apertures, m.  gap: rest height, m.
+    rot: (..., 3, 3) rotations.  trans: (..., 3) displacements, m.  centre: (3,), m.
+  """
+  n0 = xp.stack([-slopes[:, 0], -slopes[:, 1], xp.ones_like(slopes[:, 0])], axis=1)  # (8, 3)
+  const = xp.sum(n0 * (sensors + xp.stack([0.0 * gap, 0.0 * gap, gap]) - centre), axis=1)
+  u = xp.einsum("...ij,...i->...j", rot, centre + trans)  # R^T (c + t)
+  # (R n0) . sensor = sum_ij R_ij n0_j sensor_i: one product with a (9, 8) matrix
+  m = (sensors[:, :, None] * n0[:, None, :]).reshape(8, 9).T
+  flat = rot.reshape(rot.shape[:-2] + (9,))
+  return (const + u @ n0.T - flat @ m) / (rot[..., 2, :] @ n0.T)
 
 
 def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
@@ -47,21 +79,15 @@ def heights(params: ShellParams, rot: np.ndarray, trans: np.ndarray,
       of side reflector_size in the shell frame), as a ray would; else the facet planes are
       unbounded.
   """
-  c = np.array([0.0, 0.0, params.gap]) if centre is None else np.asarray(centre, float)
-  sens = params.sensor_positions()
-  p0 = sens + np.array([0.0, 0.0, params.gap])  # facet points above the sensors at rest
-  slopes = params.slopes()
-  n0 = np.column_stack([-slopes, np.ones(8)])  # facet normals (unnormalised), shell frame
   rot = np.asarray(rot, float)
   trans = np.asarray(trans, float)
-  p = np.einsum("...ij,kj->...ki", rot, p0 - c) + c + trans[..., None, :]
-  n = np.einsum("...ij,kj->...ki", rot, n0)
-  # sensor + h e_z on the plane: n . (sensor + h e_z - p) = 0
-  h = np.sum(n * (p - sens), axis=-1) / n[..., 2]
+  c = np.array([0.0, 0.0, params.gap]) if centre is None else np.asarray(centre, float)
+  sens = params.sensor_positions()
+  h = plane_heights(np, params.slopes(), sens, params.gap, rot, trans, c)
   if not finite_facets:
     return h
+  # where the line of sight meets the plane, back in the shell frame: R^T (hit - c - t) + c
   hit = sens + h[..., None] * np.array([0.0, 0.0, 1.0])
-  # back into the shell frame: R^T (hit - c - t) + c
   local = np.einsum("...ji,...kj->...ki", rot, hit - c - trans[..., None, :]) + c
   off = np.abs(local[..., :2] - sens[:, :2])
   return np.where(np.all(off <= params.reflector_size / 2, axis=-1), h, np.nan)
@@ -73,16 +99,19 @@ def pose_heights(params: ShellParams, pose: np.ndarray, centre: np.ndarray | Non
   turned y, turned z) about `centre` (default the centre of the reflector plane); see
   `heights`."""
   pose = np.asarray(pose, float)
-  return heights(params, rotation(pose[..., 3:]), pose[..., :3], centre, finite_facets)
+  return heights(params, rotation_xp(np, pose[..., 3:]), pose[..., :3], centre, finite_facets)
 
 
-def height_jacobian(params: ShellParams, step: float = 1e-7) -> np.ndarray:
-  """(8, 6) d heights / d pose at rest, by central differences of the closed form."""
+def height_jacobian(params: ShellParams, step: float = 1e-7,
+                    centre: np.ndarray | None = None) -> np.ndarray:
+  """(8, 6) d heights / d pose at rest, by central differences of the closed form, the pose's
+  rotations about `centre` (default the centre of the reflector plane)."""
   cols = []
   for j in range(6):
     d = np.zeros(6)
     d[j] = step
-    cols.append((pose_heights(params, d) - pose_heights(params, -d)) / (2 * step))
+    cols.append((pose_heights(params, d, centre) - pose_heights(params, -d, centre))
+                / (2 * step))
   return np.stack(cols, axis=1)
 
 

@@ -110,8 +110,10 @@ def sense(scene: ShellScene, pose: np.ndarray, seed: int) -> tuple[np.ndarray, n
                                         scene.unit_seed)
 
 
-def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.ndarray:
-  """(steps, 6) smooth random wrench (N, N m) about the F/T site, one per physics step.
+def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator,
+               dt: Optional[float] = None) -> np.ndarray:
+  """(steps, 6) smooth random wrench (N, N m) about the F/T site, one per physics step (or
+  per `dt`, s, if given: the static path samples it at frames).
 
   Random targets every knot_interval, uniform in each axis's range, the first and last at
   rest. The hand moves from one target to the next along a quintic smoothstep (zero rate
@@ -122,7 +124,7 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   """
   if scene.loading == "rest":
     return np.zeros((steps, 6))
-  dt = scene.params.timestep
+  dt = scene.params.timestep if dt is None else dt
   n_knots = max(2, int(np.ceil(steps * dt / scene.knot_interval)) + 1)
   lim = np.array([scene.force_range] * 3 + [scene.torque_range] * 3)
   lo = -lim.copy()
@@ -132,7 +134,7 @@ def hand_loads(scene: ShellScene, steps: int, rng: np.random.Generator) -> np.nd
   knots = rng.uniform(lo, hi, (n_knots, 6))
   knots[0] = knots[-1] = 0.0
   if scene.in_window:
-    knots *= _window_scale(scene.params, knots, scene.sensor)[:, None]
+    knots *= window_scale(scene.params, knots, scene.sensor)[:, None]
   u = np.arange(steps) * dt / (steps * dt) * (n_knots - 1)  # in knot intervals
   i = np.minimum(u.astype(int), n_knots - 2)
   tau = u - i
@@ -149,7 +151,7 @@ def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray
   return np.concatenate([w[..., :3], m], axis=-1) / model_lib.mount_stiffness(params)
 
 
-def _window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
+def window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
                   sensor: photointerrupter.Photointerrupter) -> np.ndarray:
   """(K,) largest factor in [0, 1] keeping every static height inside the sensor's window,
   by bisection (the heights are monotonic along a ray of small loads)."""
@@ -265,6 +267,28 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   return rec, timing
 
 
+def simulate_static(scene: ShellScene) -> recording.Recording:
+  """The static path: the scene's hand loads at 100 Hz frames, each held long enough for the
+  shell to settle at `static_pose` (the mount's stiffness, no dynamics), read through the
+  board's sensors with the scene's signal effects. Model effects (`spring_hysteresis`) have
+  no static counterpart and are ignored. Loads and noise are drawn from `scene.seed`; the
+  wrench is the applied one, which a tared F/T body reads at rest.
+  """
+  scene.validate()
+  loads = hand_loads(scene, scene.frames, np.random.default_rng(scene.seed), 1 / FRAME_RATE)
+  pose = static_pose(scene.params, loads)
+  height, counts = sense(scene, pose, scene.seed)
+  unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
+                                                                               pose)
+  return recording.Recording(
+      time=np.arange(1, scene.frames + 1) / FRAME_RATE, counts=counts, wrench=loads,
+      episode=np.zeros(scene.frames, np.int32), height=height, pose=pose, applied=loads,
+      meta={"scene": "shell", "path": "static", "config": config(scene),
+            "effects": list(scene.effects), "seed": scene.seed,
+            "out_of_window": float(np.mean(~np.all(scene.sensor.in_window(height), axis=1))),
+            "bottomed": float(np.mean(np.any(unbounded <= 0.0, axis=1)))})
+
+
 def _warn_rank(scene: ShellScene) -> None:
   quality = geometry.map_quality(geometry.height_jacobian(scene.params))
   if quality.rank < 6:
@@ -289,8 +313,9 @@ def config(scene: ShellScene) -> dict:
 def versions() -> dict[str, str]:
   # "physics" changes whenever the model or the sensor chain does, so stale cached
   # recordings are not reused.
+  # 2 = heights through the matrix form of the closed form (equal to 1e-18 m)
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
-          "physics": "1"}
+          "physics": "2"}
 
 
 def generate(scene: ShellScene, progress: Optional[Progress] = None, use_cache: bool = True

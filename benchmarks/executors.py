@@ -1,0 +1,276 @@
+"""Where a sweep's points run: one small interface over serial, local processes and Dask.
+
+`sweep(fn, points, spec, store, progress)` evaluates fn(point) for every point (a JSON-able
+dict that carries everything fn needs, its seed included, so a result never depends on the
+executor or the number of workers). Points already in the `PointStore` are loaded, not run
+again: an interrupted sweep, rerun with the same arguments, resumes. A point whose worker
+fails (an exception, or a worker process that dies) is retried once, alone; if it fails
+again it is reported, and the others are kept.
+
+Executors:
+* "serial": in this process, one point after another.
+* "processes" (default): a pool of spawned processes on this machine (spawn, not fork: safe
+  with MuJoCo's and JAX's threads), one per core unless `workers` says otherwise.
+* "dask": Dask distributed, an optional extra imported only here. Without an address it
+  starts a `LocalCluster` whose scheduler, workers and dashboard listen on 127.0.0.1 only;
+  with `address` it joins a running scheduler using Dask's security settings (TLS
+  certificates from the `distributed.comm.tls` configuration, or `tls_*` below), so a sweep
+  never opens an unauthenticated port to the network by default.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import json
+import multiprocessing
+import os
+import pathlib
+import traceback
+from typing import Any, Callable, Iterator, Literal, Optional
+
+Point = dict[str, Any]
+Progress = Callable[[int, int], None]
+
+
+class ExecutorError(RuntimeError):
+  """An executor could not be started or reached; the message says what to change."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ExecutorSpec:
+  """How a sweep runs its points.
+
+  Attributes:
+    kind: "serial", "processes" or "dask".
+    workers: processes or Dask workers; None: one per core.
+    address: a running Dask scheduler to join (tcp://HOST:PORT or tls://HOST:PORT); None
+      starts a LocalCluster on 127.0.0.1.
+    tls_ca_file, tls_cert, tls_key: Dask TLS files for joining a scheduler (default: Dask's
+      configuration).
+    connect_timeout: seconds to wait for a scheduler before giving up.
+  """
+  kind: Literal["serial", "processes", "dask"] = "processes"
+  workers: Optional[int] = None
+  address: Optional[str] = None
+  tls_ca_file: Optional[str] = None
+  tls_cert: Optional[str] = None
+  tls_key: Optional[str] = None
+  connect_timeout: float = 10.0
+
+  def count(self) -> int:
+    return self.workers or os.cpu_count() or 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Failure:
+  """A point that failed twice: its index, the point and the last error."""
+  index: int
+  point: Point
+  error: str
+
+
+class _Died(Exception):
+  """The worker running the point died (the process pool broke while it ran)."""
+
+
+class PointStore:
+  """Finished points on disk, one JSON file each under `folder`, named by a hash of the
+  point (so a point with other settings or another seed is a different file)."""
+
+  def __init__(self, folder: pathlib.Path):
+    self.folder = pathlib.Path(folder)
+
+  def _path(self, point: Point) -> pathlib.Path:
+    from sim import cache
+    return self.folder / f"{cache.content_key(point)}.json"
+
+  def load(self, point: Point) -> Optional[Any]:
+    path = self._path(point)
+    if not path.exists():
+      return None
+    try:
+      saved = json.loads(path.read_text())
+    except (OSError, ValueError):
+      return None  # unreadable: run the point again
+    return saved["result"] if saved.get("point") == json.loads(json.dumps(point)) else None
+
+  def save(self, point: Point, result: Any) -> None:
+    from sim import cache
+    self.folder.mkdir(parents=True, exist_ok=True)
+    text = json.dumps({"point": point, "result": result}, sort_keys=True)
+    cache.atomic_write(self._path(point), lambda f: f.write(text.encode()))
+
+
+def _call(fn, point):
+  try:
+    return fn(point), None
+  except Exception:  # reported with the point, the sweep goes on
+    return None, traceback.format_exc(limit=3)
+
+
+def _serial(fn, items) -> Iterator[tuple[int, Any, Optional[BaseException]]]:
+  # one BLAS thread, as in the workers of the other executors: a threaded BLAS sums in
+  # another order, and results would differ in the last digits between executors
+  from threadpoolctl import threadpool_limits
+  for i, point in items:
+    with threadpool_limits(1):
+      result, err = _call(fn, point)
+    yield i, result, (RuntimeError(err) if err else None)
+
+
+# One BLAS thread per worker process: the workers already fill the cores, and numpy's
+# threads on top of them oversubscribe (measured: a 145-design sweep took 68 s on 2 workers
+# instead of ~25 s). Dask's nanny sets the same variables for its workers.
+_ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                                       "MKL_NUM_THREADS")}
+
+
+def _set_env(values: dict[str, Optional[str]]) -> dict[str, Optional[str]]:
+  old = {k: os.environ.get(k) for k in values}
+  for k, v in values.items():
+    if v is None:
+      os.environ.pop(k, None)
+    else:
+      os.environ[k] = v
+  return old
+
+
+def _processes(fn, items, workers: int, one_at_a_time: bool):
+  """Points on a pool of spawned processes. A worker's death breaks the whole pool and fails
+  every point still on it, so all of those are charged an attempt; the retry round then runs
+  points one at a time (`one_at_a_time`), so that a point which kills its worker fails alone."""
+  ctx = multiprocessing.get_context("spawn")
+  old = _set_env(_ONE_THREAD)  # the workers, spawned as needed, inherit the environment
+  try:
+    yield from _pool(fn, items, ctx, workers, one_at_a_time)
+  finally:
+    _set_env(old)
+
+
+def _pool(fn, items, ctx, workers: int, one_at_a_time: bool):
+  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+    if one_at_a_time:
+      for i, point in items:
+        try:
+          result, err = pool.submit(_call, fn, point).result()
+        except concurrent.futures.process.BrokenProcessPool:
+          yield i, None, _Died("the worker process died")
+          return  # the pool is gone: the caller runs what is left in a new one
+        yield i, result, (RuntimeError(err) if err else None)
+      return
+    futures = {pool.submit(_call, fn, point): i for i, point in items}
+    for fut in concurrent.futures.as_completed(futures):
+      try:
+        result, err = fut.result()
+      except concurrent.futures.process.BrokenProcessPool:
+        yield futures[fut], None, _Died("the worker process died")
+        continue
+      yield futures[fut], result, (RuntimeError(err) if err else None)
+
+
+class _Dask:
+  def __init__(self, spec: ExecutorSpec):
+    try:
+      import distributed
+    except ImportError:
+      raise ExecutorError("--executor dask needs Dask: pip install -e '.[cluster]'") from None
+    self._cluster = None
+    try:
+      if spec.address:
+        security = distributed.Security(
+            tls_ca_file=spec.tls_ca_file, tls_client_cert=spec.tls_cert,
+            tls_client_key=spec.tls_key) if spec.tls_ca_file else distributed.Security()
+        self.client = distributed.Client(spec.address, security=security,
+                                         timeout=f"{spec.connect_timeout}s")
+      else:
+        self._cluster = distributed.LocalCluster(
+            n_workers=spec.count(), threads_per_worker=1, processes=True, host="127.0.0.1",
+            scheduler_port=0, dashboard_address="127.0.0.1:0", silence_logs=40)
+        self.client = distributed.Client(self._cluster, timeout=f"{spec.connect_timeout}s")
+    except (OSError, TimeoutError) as err:
+      self.close()
+      raise ExecutorError(f"could not reach the Dask scheduler at {spec.address}: {err} "
+                          f"(check --address, and the scheduler's TLS settings)") from None
+
+  def map(self, fn, items):
+    import distributed
+    futures = {self.client.submit(_call, fn, point, pure=False, retries=1): i
+               for i, point in items}
+    for fut in distributed.as_completed(futures):
+      i = futures[fut]
+      try:
+        result, err = fut.result()
+      except Exception as exc:  # the worker died more often than Dask retries
+        yield i, None, _Died(f"{type(exc).__name__}: {exc}")
+        continue
+      yield i, result, (RuntimeError(err) if err else None)
+
+  def close(self):
+    if getattr(self, "client", None) is not None:
+      self.client.close()
+    if self._cluster is not None:
+      self._cluster.close()
+
+
+def sweep(fn: Callable[[Point], Any], points: list[Point], spec: ExecutorSpec = ExecutorSpec(),
+          store: Optional[PointStore] = None, progress: Optional[Progress] = None
+          ) -> tuple[list[Optional[Any]], list[Failure]]:
+  """Evaluates fn on every point.
+
+  Args:
+    fn: a module-level function (workers import it by name) of one JSON-able point.
+    points: the points, each carrying its own seed.
+    spec: where to run them.
+    store: finished points; those in it are loaded, new ones saved as they finish.
+    progress: progress(done, total) as points finish (loaded ones count as done).
+  Returns:
+    The results in the order of `points` (None for a failed point) and the failures.
+  """
+  results: list[Optional[Any]] = [None] * len(points)
+  todo = []
+  for i, p in enumerate(points):
+    saved = store.load(p) if store else None
+    if saved is not None:
+      results[i] = saved
+    else:
+      todo.append(i)
+  done = len(points) - len(todo)
+  if progress:
+    progress(done, len(points))
+  attempts = {i: 0 for i in todo}
+  errors: dict[int, str] = {}
+  dask = _Dask(spec) if spec.kind == "dask" and todo else None
+  try:
+    retry = False
+    while todo:
+      items = [(i, points[i]) for i in todo]
+      if spec.kind == "serial":
+        outcomes = _serial(fn, items)
+      elif spec.kind == "processes":
+        outcomes = _processes(fn, items, 1 if retry else min(spec.count(), len(items)), retry)
+      elif spec.kind == "dask":
+        outcomes = dask.map(fn, items)
+      else:
+        raise ExecutorError(f"executor {spec.kind!r} is unknown: allowed serial, processes, "
+                            f"dask")
+      for i, result, err in outcomes:
+        if err is None:
+          results[i] = result
+          if store:
+            store.save(points[i], result)
+          done += 1
+          if progress:
+            progress(done, len(points))
+        else:
+          attempts[i] += 1
+          errors[i] = str(err)
+      # a failed point is retried once; what a broken pool never ran runs again
+      todo = sorted(i for i in attempts if results[i] is None and attempts[i] < 2)
+      retry = any(attempts[i] for i in todo)
+  finally:
+    if dask is not None:
+      dask.close()
+  failures = [Failure(i, points[i], errors.get(i, "not run"))
+              for i in range(len(points)) if results[i] is None]
+  return results, failures

@@ -1,0 +1,88 @@
+"""Sweeps give the same results whatever runs them, resume, and survive failing workers."""
+
+import os
+import time
+
+import numpy as np
+import pytest
+
+from benchmarks import executors
+
+
+def noisy_sum(point):
+  """A point's result from its own seed alone."""
+  rng = np.random.default_rng(point["seed"])
+  return {"value": float(np.sum(rng.normal(size=1000)) + point["x"]), "pid": os.getpid()}
+
+
+def dies_on_seven(point):
+  if point["x"] == 7:
+    os._exit(3)  # the worker process dies mid-sweep
+  if point["x"] == 5:
+    raise ValueError("bad point")
+  return {"value": point["x"]}
+
+
+POINTS = [{"x": x, "seed": 100 + x} for x in range(12)]
+
+
+def _values(results):
+  return [r["value"] for r in results]
+
+
+@pytest.fixture(scope="module")
+def serial():
+  results, failures = executors.sweep(noisy_sum, POINTS, executors.ExecutorSpec("serial"))
+  assert not failures
+  return _values(results)
+
+
+def test_processes_give_the_serial_results(serial):
+  results, failures = executors.sweep(noisy_sum, POINTS, executors.ExecutorSpec("processes",
+                                                                                  workers=2))
+  assert not failures and _values(results) == serial
+  assert len({r["pid"] for r in results}) >= 1 and results[0]["pid"] != os.getpid()
+
+
+def test_dask_local_cluster_on_loopback_gives_the_serial_results(serial):
+  pytest.importorskip("distributed")
+  results, failures = executors.sweep(noisy_sum, POINTS, executors.ExecutorSpec("dask",
+                                                                                  workers=2))
+  assert not failures and _values(results) == serial
+
+
+def test_an_interrupted_sweep_resumes_from_its_store(tmp_path, serial):
+  store = executors.PointStore(tmp_path)
+  executors.sweep(noisy_sum, POINTS[:5], executors.ExecutorSpec("serial"), store)
+  seen = []
+  results, _ = executors.sweep(noisy_sum, POINTS, executors.ExecutorSpec("serial"), store,
+                               progress=lambda d, t: seen.append(d))
+  assert _values(results) == serial
+  assert seen[0] == 5 and seen[-1] == 12  # five loaded, seven run
+  # another seed is another point
+  other = [dict(p, seed=p["seed"] + 1) for p in POINTS[:1]]
+  assert store.load(other[0]) is None
+
+
+@pytest.mark.parametrize("kind", ["serial", "processes"])
+def test_failing_points_are_retried_once_then_reported_and_the_rest_kept(kind):
+  if kind == "serial":
+    points = [p for p in POINTS if p["x"] != 7]  # a dying point would end this process
+  else:
+    points = POINTS
+  results, failures = executors.sweep(dies_on_seven, points,
+                                      executors.ExecutorSpec(kind, workers=2))
+  bad = {f.point["x"] for f in failures}
+  assert bad == ({5, 7} if kind == "processes" else {5})
+  assert all("bad point" in f.error or "died" in f.error for f in failures)
+  kept = [r["value"] for r, p in zip(results, points) if p["x"] not in bad]
+  assert kept == [p["x"] for p in points if p["x"] not in bad]
+
+
+def test_an_unreachable_scheduler_is_a_clear_error_within_ten_seconds():
+  pytest.importorskip("distributed")
+  t = time.perf_counter()
+  with pytest.raises(executors.ExecutorError, match="could not reach the Dask scheduler"):
+    executors.sweep(noisy_sum, POINTS[:1], executors.ExecutorSpec(
+        "dask", address="tcp://127.0.0.1:9", connect_timeout=3))
+  assert time.perf_counter() - t < 10
