@@ -1,7 +1,7 @@
 """The benchmark registry, in the style of dm_control's suite: each benchmark module registers
-its run functions with `register`, and `all_benchmarks` imports the modules of the rig
-packages (`benchmarks.footpad`, `benchmarks.shell`) to collect them, so the list of names is
-never written twice.
+its run functions with `register`, and `all_benchmarks` imports the modules of the packages
+(`benchmarks.footpad`, `benchmarks.shell`, `benchmarks.calibrators`) to collect them, so the
+list of names is never written twice.
 
 Benchmark modules import nothing heavy at module level (no JAX, no MuJoCo): the command's
 `--help` and `--list` import them all.
@@ -18,6 +18,7 @@ from typing import Any, Callable, Mapping, Optional
 
 Progress = Callable[[int, int], None]
 RIGS = ("footpad", "shell")
+PACKAGES = RIGS + ("calibrators",)  # the calibrators' benchmarks take both rigs' data
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,10 +116,10 @@ def register(name: str, description: str, *, settings: Callable[[bool, int], Any
 
 def all_benchmarks() -> dict[str, Benchmark]:
   """Every registered benchmark, by name, in the order the rig packages register them."""
-  for rig in RIGS:
-    package = importlib.import_module(f"benchmarks.{rig}")
+  for name in PACKAGES:
+    package = importlib.import_module(f"benchmarks.{name}")
     for info in pkgutil.iter_modules(package.__path__):
-      importlib.import_module(f"benchmarks.{rig}.{info.name}")
+      importlib.import_module(f"benchmarks.{name}.{info.name}")
   return dict(_REGISTRY)
 
 

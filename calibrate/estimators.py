@@ -82,7 +82,8 @@ def split_validation(n: int, fraction: float, seed: int) -> tuple[np.ndarray, np
 
 def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         linear_fit: Optional[linear.LinearFit] = None, config: mlp.LMConfig = mlp.LMConfig(),
-        val_fraction: float = 0.15, seed: int = 0, progress=None) -> Estimator:
+        val_fraction: float = 0.15, seed: int = 0, progress=None,
+        degree: int = 3, snapshots: tuple[int, ...] = ()) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -92,16 +93,27 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       strokes, the network on other paths); fitted on (counts, forces) when None.
     config: network training settings.  val_fraction: share held out for validation stops.
     seed: integer for the validation split and the network's start point.
+    degree: the polynomial degree of POLY (the shell paper's cubic: 3).
+    snapshots: epoch caps to keep the best net at (`at_epoch_cap`).
   """
   kind = Kind(kind)
   counts, forces = linear.check_pair(counts, forces)
   if kind in (Kind.LS, Kind.POLY):
-    return Estimator(kind, linear.fit_linear(counts, forces, degree=3 if kind is Kind.POLY else 1))
+    return Estimator(kind, linear.fit_linear(counts, forces,
+                                             degree=degree if kind is Kind.POLY else 1))
   lin = None
   inputs, targets = counts, forces
   if kind is Kind.LSANN:
     lin = linear_fit or linear.fit_linear(counts, forces)
     targets = forces - lin.predict(counts)
   tr, va = split_validation(len(inputs), val_fraction, seed)
-  res = mlp.train(inputs[tr], targets[tr], inputs[va], targets[va], config, seed, progress)
+  res = mlp.train(inputs[tr], targets[tr], inputs[va], targets[va], config, seed, progress,
+                  snapshots=snapshots)
   return Estimator(kind, lin, res.net, res)
+
+
+def at_epoch_cap(est: Estimator, cap: int) -> Estimator:
+  """The estimator that training `est` with `epochs=cap` would have returned (its fit must
+  have been asked for that cap in `snapshots`)."""
+  net, _ = est.training.snapshots[cap]
+  return dataclasses.replace(est, net=net)

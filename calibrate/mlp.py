@@ -153,6 +153,9 @@ class TrainResult:
       epoch 0 being the start point.
     seconds: wall time of the epochs after compilation, s.  compile_seconds: JIT time, s.
     best_epoch: epoch whose weights `net` holds.
+    times: (epochs + 1,) wall time after compilation at the end of each epoch, s (0 first).
+    snapshots: {epoch cap: (the net at the best validation epoch up to the cap, that epoch)}
+      for the caps `train` was asked for: what training with `epochs=cap` would return.
   """
   net: MLP
   epochs: int
@@ -162,6 +165,8 @@ class TrainResult:
   seconds: float
   compile_seconds: float
   best_epoch: int
+  times: Optional[np.ndarray] = None
+  snapshots: Optional[dict] = None
 
   @property
   def best_val_mse(self) -> float:
@@ -331,7 +336,7 @@ def _jaxopt_epoch_fn(h: int, cfg: LMConfig):
 def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
           config: LMConfig = LMConfig(), seed: int = 0,
           progress: Optional[Callable[[int, int], None]] = None,
-          start: Optional[np.ndarray] = None) -> TrainResult:
+          start: Optional[np.ndarray] = None, snapshots: tuple[int, ...] = ()) -> TrainResult:
   """Fits the network to (x, y), stopping on the validation set (x_val, y_val).
 
   Args:
@@ -339,6 +344,8 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
     config: LM settings.  seed: integer driving the Nguyen-Widrow start (JAX key).
     progress: called as progress(epoch, config.epochs).
     start: optional parameter vector to start from instead of Nguyen-Widrow.
+    snapshots: epoch caps at which to keep the best net so far (`TrainResult.snapshots`), so
+      one run stands for the runs with those smaller `epochs`.
   """
   config.validate()
   x, y = linear.check_pair(x, y)
@@ -385,20 +392,24 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   tr0 = float(train_mse(_sse_per_output(theta, xj, yj, h)))
   va0 = float(val_mse(theta))
   compile_s = time.perf_counter() - t0
-  train_hist, val_hist = [tr0], [va0]
+  train_hist, val_hist, times = [tr0], [va0], [0.0]
   best, best_epoch, fails, stop = theta, 0, 0, Stop.MAX_EPOCHS
+  kept = {}
   t1 = time.perf_counter()
   for ep in range(1, config.epochs + 1):
     theta, state, info = step(theta, state)
     tr, va, grad, mse_scaled, mu = np.asarray(info).tolist()
     train_hist.append(tr)
     val_hist.append(va)
+    times.append(time.perf_counter() - t1)
     if progress:
       progress(ep, config.epochs)
     if va < val_hist[best_epoch]:
       best, best_epoch, fails = theta, ep, 0
     else:
       fails += 1
+    if ep in snapshots:
+      kept[ep] = (best, best_epoch)
     if config.backend == "own" and mu > config.mu_max:
       stop = Stop.MU_MAX
     elif fails >= config.max_fail:
@@ -411,6 +422,12 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
       continue
     break
   seconds = time.perf_counter() - t1
-  w1, w2 = (np.asarray(w) for w in _unpack(best, h, d, o))
-  return TrainResult(MLP(w1, w2, xs, ys), ep, stop, np.array(train_hist), np.array(val_hist),
-                     seconds, compile_s, best_epoch)
+
+  def net(theta):
+    w1, w2 = (np.asarray(w) for w in _unpack(theta, h, d, o))
+    return MLP(w1, w2, xs, ys)
+  # caps past the stop return what the stop returned
+  kept.update({cap: (best, best_epoch) for cap in snapshots if cap not in kept})
+  return TrainResult(net(best), ep, stop, np.array(train_hist), np.array(val_hist),
+                     seconds, compile_s, best_epoch, np.array(times),
+                     {cap: (net(t), e) for cap, (t, e) in kept.items()})

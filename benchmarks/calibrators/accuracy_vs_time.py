@@ -1,0 +1,195 @@
+"""accuracy_vs_time: what each calibrator's accuracy costs in training time, on both sensors.
+
+Every calibrator over its settings gives a point: linear least squares; the polynomial
+pseudoinverse of degrees 1-4 (the shell paper's is 3); LSANN and NN-only (LM-trained tanh
+networks) with each hidden size, each epoch cap and both damping rules (MATLAB trainlm's and
+Nielsen's). A point is (training seconds after JIT compilation, test error, prediction cost
+per sample). One training run per network keeps its best validation net at every cap
+(`calibrate.mlp.train(snapshots=...)`), which is what a run capped there would return; its
+time is the run's time at that epoch.
+
+Data: the footpad's protocol (LS and polynomials fitted on the Z presses and X/Y strokes, the
+networks on the Asterisk path, LSANN's linear stage the LS fit, all tested on Testing Paths 1
+and 2; error: mean NRMSE over X, Y, Z) and the shell's (everything fitted on the calibration
+run, tested on the test run; error: mean median % error over the six axes, the paper's Table
+I metric). Networks train on at most `samples` samples drawn at random. Fits run one after
+another in this process, so that their times are not shared with other work.
+
+The Pareto front (no faster point is as accurate) is printed per sensor, with where more
+training time stops paying: the first front point from which no slower front point lowers
+the error by 10 % or more per doubling of the training time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Literal
+
+import numpy as np
+
+from benchmarks.registry import register
+from models import fields
+from models.fields import setting
+
+PAYING = 0.10  # a doubling of training time must lower the error by this share to pay
+
+
+@fields.declared
+@dataclasses.dataclass(frozen=True)
+class AccuracyVsTime:
+  """Settings of the accuracy-against-time benchmark.
+
+  Attributes:
+    rigs: the sensors whose data the calibrators fit.
+    degrees: polynomial degrees of the pseudoinverse.
+    hidden: hidden tanh units of LSANN and NN-only.
+    epochs: epoch caps of the networks.
+    dampings: LM damping rules.
+    samples: at most this many training samples for the networks, drawn at random.
+  """
+  rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
+  degrees: tuple[int, ...] = setting((1, 2, 3, 4), "[1, 5]", length=(0, 5))
+  hidden: tuple[int, ...] = setting((5, 10, 20, 40), "[1, 200]", length=(0, 8))
+  epochs: tuple[int, ...] = setting((10, 30, 100, 1000), "[1, 5000]", length=(1, 8))
+  dampings: tuple[Literal["trainlm", "nielsen"], ...] = ("trainlm", "nielsen")
+  samples: int = setting(50000, "[1000, 1e7]")
+
+
+def settings(quick: bool, seed: int) -> AccuracyVsTime:
+  if quick:
+    return AccuracyVsTime(hidden=(5, 10, 20), epochs=(10, 30, 100, 300), samples=10000)
+  return AccuracyVsTime()
+
+
+def _data(ctx, rig: str) -> dict:
+  """Training and test arrays of one sensor, and its error function."""
+  from calibrate import metrics
+  if rig == "footpad":
+    from sim.footpad import protocol, scene
+    recs = {n: scene.generate(s, ctx.progress(f"footpad {n} episodes"), ctx.use_cache)[0]
+            for n, s in protocol.scenes(protocol.base(ctx.quick, ctx.seed)).items()}
+    lin = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
+    net = recs["train"].on_path("asterisk")
+    test = recs["test"].on_path()
+
+    def error(pred, truth):
+      return float(np.mean(metrics.nrmse_pct(pred, truth)))
+    return {"linear": (lin.counts, lin.wrench[:, :3]), "net": (net.counts, net.wrench[:, :3]),
+            "test": (test.counts, test.wrench[:, :3]), "error": error,
+            "metric": "mean NRMSE % over X, Y, Z (test paths)"}
+  from sim.shell import protocol, scene
+  recs = {n: scene.generate(s, ctx.progress(f"shell {n} frames"), ctx.use_cache)[0]
+          for n, s in protocol.scenes(protocol.base(ctx.quick, ctx.seed), ctx.quick,
+                                      ctx.seed).items()}
+  cal, test = recs["calibration"], recs["test"]
+
+  def error(pred, truth):
+    return float(np.mean(np.concatenate([
+        metrics.median_pct_error(pred[:, :3], truth[:, :3], 0.2),
+        metrics.median_pct_error(pred[:, 3:], truth[:, 3:], 0.01)])))
+  return {"linear": (cal.counts, cal.wrench), "net": (cal.counts, cal.wrench),
+          "test": (test.counts, test.wrench), "error": error,
+          "metric": "mean median % error over the six axes (test run)"}
+
+
+def _predict_cost(est, counts) -> float:
+  """Seconds per sample of est.predict over the test counts (best of three)."""
+  est.predict(counts[:10])
+  best = np.inf
+  for _ in range(3):
+    t = time.perf_counter()
+    est.predict(counts)
+    best = min(best, time.perf_counter() - t)
+  return best / len(counts)
+
+
+def front(points: list[dict]) -> list[dict]:
+  """The Pareto front: points no faster point beats in error, by training time."""
+  out, best = [], np.inf
+  for p in sorted(points, key=lambda p: (p["seconds"], p["error"])):
+    if p["error"] < best:
+      out.append(p)
+      best = p["error"]
+  return out
+
+
+def stops_paying(front_points: list[dict]) -> dict | None:
+  """The first front point from which no slower front point lowers the error by PAYING
+  (relative) or more per doubling of training time."""
+  for k, a in enumerate(front_points):
+    pays = False
+    for b in front_points[k + 1:]:
+      doublings = np.log2(max(b["seconds"], 1e-9) / max(a["seconds"], 1e-9))
+      kept = b["error"] / a["error"]  # the share of the error left
+      pays |= doublings <= 0 or 1 - kept ** (1 / doublings) >= PAYING
+    if not pays:
+      return a
+  return None
+
+
+def _rig(ctx, rig: str) -> dict:
+  from calibrate import estimators, mlp
+  s = ctx.settings
+  d = _data(ctx, rig)
+  error = d["error"]
+  test_x, test_y = d["test"]
+  points = []
+
+  def add(name, est, seconds, compile_seconds=0.0, **extra):
+    points.append({"calibrator": name, "seconds": seconds, "compile_seconds": compile_seconds,
+                   "error": error(est.predict(test_x), test_y),
+                   "predict_us": _predict_cost(est, test_x) * 1e6, **extra})
+
+  x, y = d["linear"]
+  t = time.perf_counter()
+  ls = estimators.fit(estimators.Kind.LS, x, y)
+  add("LS", ls, time.perf_counter() - t)
+  for degree in s.degrees:
+    t = time.perf_counter()
+    est = estimators.fit(estimators.Kind.POLY, x, y, degree=degree)
+    add(f"POLY{degree}", est, time.perf_counter() - t, degree=degree)
+  nx, ny = d["net"]
+  pick = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(3,))).permutation(
+      len(nx))[:s.samples]
+  nx, ny = nx[pick], ny[pick]
+  caps = tuple(sorted(s.epochs))
+  runs = [(k, h, dmp) for k in ("LSANN", "NN") for h in s.hidden for dmp in s.dampings]
+  for n, (kind, hidden, damping) in enumerate(runs):
+    cfg = mlp.LMConfig(hidden=hidden, damping=damping, epochs=max(caps))
+    est = estimators.fit(estimators.Kind(kind), nx, ny, linear_fit=ls.linear, config=cfg,
+                         seed=ctx.seed, snapshots=caps,
+                         progress=ctx.progress(f"{rig} {kind} h={hidden} {damping} "
+                                               f"({n + 1}/{len(runs)})"))
+    tr = est.training
+    for cap in caps:
+      _, best_epoch = tr.snapshots[cap]
+      ran = min(cap, tr.epochs)
+      add(f"{kind} h={hidden} {damping} <={cap}", estimators.at_epoch_cap(est, cap),
+          float(tr.times[ran]), tr.compile_seconds, kind=kind, hidden=hidden,
+          damping=damping, cap=cap, epochs_run=ran, best_epoch=best_epoch)
+  f = front(points)
+  return {"metric": d["metric"], "points": points, "front": f, "stops_paying": stops_paying(f),
+          "samples": {"linear": len(x), "networks": len(nx), "test": len(test_x)}}
+
+
+@register("accuracy_vs_time", "every calibrator over its settings on both sensors: training "
+          "seconds against test error, Pareto front, where more time stops paying",
+          settings=settings, tags=("footpad", "shell", "calibration", "speed"))
+def run(ctx) -> dict:
+  out = {}
+  for rig in ctx.settings.rigs:
+    r = out[rig] = _rig(ctx, rig)
+    ctx.print(f"\n{rig}: {r['metric']}; {len(r['points'])} points "
+              f"({r['samples']['linear']} linear / {r['samples']['networks']} network training "
+              f"samples, {r['samples']['test']} test)")
+    ctx.print(f"  {'Pareto front':34s} {'train s':>9s} {'error':>8s} {'predict us':>11s}")
+    for p in r["front"]:
+      mark = "  <- more time stops paying" if p is r["stops_paying"] else ""
+      ctx.print(f"  {p['calibrator']:34s} {p['seconds']:9.3f} {p['error']:8.3f} "
+                f"{p['predict_us']:11.3f}{mark}")
+    slowest = max(r["points"], key=lambda p: p["seconds"])
+    ctx.print(f"  slowest point: {slowest['calibrator']} {slowest['seconds']:.2f} s, error "
+              f"{slowest['error']:.3f}; JIT compilation is not counted (up to "
+              f"{max(p['compile_seconds'] for p in r['points']):.2f} s per network)")
+  return {"rigs": out, "paying_rule": f"a doubling of time lowers the error by >= {PAYING:.0%}"}

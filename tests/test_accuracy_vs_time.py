@@ -1,0 +1,58 @@
+"""Accuracy against training time: the snapshots stand for capped runs, the front and the
+point where time stops paying follow their definitions, and the command runs on both rigs."""
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks import run as cli
+from benchmarks.calibrators import accuracy_vs_time as avt
+from calibrate import estimators, mlp
+
+
+def test_a_snapshot_at_a_cap_is_the_run_capped_there():
+  rng = np.random.default_rng(0)
+  x = rng.uniform(-1, 1, (2000, 4))
+  y = np.column_stack([np.tanh(x @ rng.normal(size=4)), np.sin(x[:, 0] * 2)])
+  long = estimators.fit(estimators.Kind.NN, x, y, config=mlp.LMConfig(hidden=6, epochs=40,
+                                                                        max_fail=1000),
+                        seed=2, snapshots=(5, 20))
+  for cap in (5, 20):
+    short = estimators.fit(estimators.Kind.NN, x, y, config=mlp.LMConfig(
+        hidden=6, epochs=cap, max_fail=1000), seed=2)
+    np.testing.assert_array_equal(estimators.at_epoch_cap(long, cap).net.w1, short.net.w1)
+  assert long.training.times.shape == (long.training.epochs + 1,)
+  assert np.all(np.diff(long.training.times) > 0)
+
+
+def _p(name, seconds, error):
+  return {"calibrator": name, "seconds": seconds, "error": error}
+
+
+def test_the_front_keeps_only_points_no_faster_point_beats():
+  pts = [_p("a", 1, 10), _p("b", 2, 12), _p("c", 3, 5), _p("d", 0.5, 20), _p("e", 8, 5)]
+  assert [p["calibrator"] for p in avt.front(pts)] == ["d", "a", "c"]
+
+
+def test_time_stops_paying_where_no_later_point_gains_ten_percent_a_doubling():
+  # a -> b: one doubling, error x0.5 (pays); b -> c: four doublings, x0.9 (2.6 % a doubling)
+  f = [_p("a", 1, 10), _p("b", 2, 5), _p("c", 32, 4.5)]
+  assert avt.stops_paying(f)["calibrator"] == "b"
+  assert avt.stops_paying([_p("a", 1, 10), _p("b", 2, 5)])["calibrator"] == "b"
+
+
+def test_the_command_gives_points_and_a_front_for_both_sensors(tmp_path):
+  args = ["accuracy_vs_time", "--quick", "--no-progress", "--out", str(tmp_path),
+          "--set", "hidden=3", "--set", "epochs=2,6", "--set", "dampings=trainlm",
+          "--set", "degrees=1,3", "--set", "samples=2000"]
+  assert cli.main(args) == 0
+  m = json.loads((tmp_path / "metrics.json").read_text())
+  for rig in ("footpad", "shell"):
+    r = m["rigs"][rig]
+    assert len(r["points"]) == 1 + 2 + 2 * 2  # LS, two degrees, two networks at two caps
+    assert all(np.isfinite(p["error"]) and p["predict_us"] > 0 for p in r["points"])
+    errors = [p["error"] for p in r["front"]]
+    assert errors == sorted(errors, reverse=True)
+  shell = {p["calibrator"]: p["error"] for p in m["rigs"]["shell"]["points"]}
+  assert shell["POLY3"] < 0.5 * shell["POLY1"]  # the paper's cubic against a linear map
