@@ -4,8 +4,8 @@ The NN-only network (6 counts -> 10 tanh -> 3 forces, inputs and outputs scaled 
 on the footpad's Asterisk training samples, from one Nguyen-Widrow start point. The project's
 LM with MATLAB trainlm's damping runs to its validation stop; its best validation MSE becomes
 the target, and each solver reports the time and iterations it needs to reach it (capped):
-the project's LM again with Nielsen's gain-ratio damping, jaxopt's LM, scipy's MINPACK LM and
-`mujoco.minimize`. Per-iteration time of the project's LM is compared with the dense J^T J
+the project's LM again with Nielsen's gain-ratio damping, jaxopt's LM, scipy's MINPACK LM,
+`mujoco.minimize` and, when the optional extra is installed, optimistix's LevenbergMarquardt. Per-iteration time of the project's LM is compared with the dense J^T J
 product (J of shape (N*3, 103)) timed in the same run. Times exclude JIT compilation, which is
 reported separately. The whole race runs with JAX's 64-bit types on.
 """
@@ -41,6 +41,36 @@ def _dense_jtj_seconds(rows: int, p: int, repeats: int = 5) -> float:
   return float(np.median(times))
 
 
+def _optimistix_racer(theta0, res_fn):
+  """(run(check, state), compile seconds) stepping optimistix's LevenbergMarquardt one
+  iteration at a time on the same residuals and start; None without optimistix (an optional
+  extra: it is the maintained JAX least-squares library, raced here as a reference)."""
+  try:
+    import optimistix as optx
+  except ImportError:
+    return None
+  import jax
+
+  solver = optx.LevenbergMarquardt(rtol=1e-15, atol=1e-15)
+
+  def fn(y, args):
+    return res_fn(y), None
+  f_struct = jax.eval_shape(lambda: fn(theta0, None)[0])
+  init = jax.jit(lambda y: solver.init(fn, y, None, {}, f_struct, None, frozenset()))
+  step = jax.jit(lambda y, st: solver.step(fn, y, None, {}, st, frozenset())[:2])
+  t = time.perf_counter()
+  jax.block_until_ready(step(theta0, init(theta0)))
+  compile_s = time.perf_counter() - t
+
+  def run(check, state):
+    y, st = theta0, init(theta0)
+    while True:
+      y, st = step(y, st)
+      state["jac"] += 1
+      check(np.asarray(y))
+  return run, compile_s
+
+
 def _race(name, run, val_mse, target, cap_s):
   """Runs `run(check, state)`: the solver calls check(theta) on every evaluated point, which
   ends the race at the target or the time cap, and counts its Jacobians in state["jac"]."""
@@ -67,7 +97,7 @@ def _race(name, run, val_mse, target, cap_s):
           "best_val_mse": state["best"]}
 
 
-@register("lm_solvers", "LM for the footpad network: own vs jaxopt vs scipy vs mujoco.minimize",
+@register("lm_solvers", "LM for the footpad network: own vs jaxopt, scipy, mujoco.minimize, optimistix",
           settings=footpad.protocol_settings, fixed=footpad.FIXED, tags=("footpad", "speed"))
 def run(ctx) -> dict:
   import jax
@@ -160,10 +190,18 @@ def _run(ctx) -> dict:
     mujoco.minimize.least_squares(theta0, fun, jacobian=jac, max_iter=10**6, verbose=0,
                                   xtol=1e-15, gtol=1e-15)
 
-  for name, fn in (("scipy least_squares lm", scipy_run), ("mujoco.minimize", mujoco_run)):
+  racers = [("scipy least_squares lm", scipy_run, compile_ref),
+            ("mujoco.minimize", mujoco_run, compile_ref)]
+  optimistix = _optimistix_racer(jnp.asarray(theta0), res_fn)
+  if optimistix is None:
+    ctx.print("optimistix is not installed (pip install -e '.[optimistix]'): its "
+              "LevenbergMarquardt is left out of the race")
+  else:
+    racers.append(("optimistix LM", *optimistix))
+  for name, fn, compile_s in racers:
     ctx.print(f"running {name} (capped at {cap:.0f} s)...")
     row = _race(name, fn, val_mse, target, cap)
-    row["compile_seconds"] = compile_ref
+    row["compile_seconds"] = compile_s
     row["seconds_per_iteration"] = row["seconds"] / max(row["iterations"], 1)
     results.append(row)
 

@@ -1,5 +1,6 @@
-"""Accuracy against training time: the snapshots stand for capped runs, the front and the
-point where time stops paying follow their definitions, and the command runs on both rigs."""
+"""The calibrators' benchmarks: accuracy against training time (the snapshots stand for capped
+runs, the front and the point where time stops paying follow their definitions, the command
+runs on both rigs) and the effect ablation."""
 
 import json
 
@@ -56,3 +57,18 @@ def test_the_command_gives_points_and_a_front_for_both_sensors(tmp_path):
     assert errors == sorted(errors, reverse=True)
   shell = {p["calibrator"]: p["error"] for p in m["rigs"]["shell"]["points"]}
   assert shell["POLY3"] < 0.5 * shell["POLY1"]  # the paper's cubic against a linear map
+
+
+def test_effect_ablation_switches_each_shell_effect_on_alone_then_all(tmp_path):
+  from sim.shell import effects
+  args = ["effect_ablation", "--quick", "--no-progress", "--out", str(tmp_path),
+          "--set", "rigs=shell"]
+  assert cli.main(args) == 0
+  rows = json.loads((tmp_path / "metrics.json").read_text())["rigs"]["shell"]["rows"]
+  assert [r["config"] for r in rows] == (["baseline"] + [f"+{e}" for e in effects.EFFECTS]
+                                         + ["all"])
+  assert rows[-1]["effects"] == list(effects.EFFECTS) and rows[0]["effects"] == []
+  by = {r["config"]: r for r in rows}
+  # stray light wanders far above the 1-count noise: it costs the calibration most
+  assert by["+stray_ir"]["error"] > 2 * by["baseline"]["error"]
+  assert by["+sensor_noise"]["error"] < 1.2 * by["baseline"]["error"]
