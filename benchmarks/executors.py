@@ -56,7 +56,7 @@ class ExecutorSpec:
   tls_ca_file: Optional[str] = None
   tls_cert: Optional[str] = None
   tls_key: Optional[str] = None
-  connect_timeout: float = 10.0
+  connect_timeout: float = 5.0
 
   def count(self) -> int:
     return self.workers or os.cpu_count() or 1
