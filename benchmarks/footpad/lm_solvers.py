@@ -46,6 +46,7 @@ def _optimistix_racer(theta0, res_fn):
   iteration at a time on the same residuals and start; None without optimistix (an optional
   extra: it is the maintained JAX least-squares library, raced here as a reference)."""
   try:
+    import equinox as eqx  # optimistix's own dependency: its states hold non-array leaves
     import optimistix as optx
   except ImportError:
     return None
@@ -56,8 +57,8 @@ def _optimistix_racer(theta0, res_fn):
   def fn(y, args):
     return res_fn(y), None
   f_struct = jax.eval_shape(lambda: fn(theta0, None)[0])
-  init = jax.jit(lambda y: solver.init(fn, y, None, {}, f_struct, None, frozenset()))
-  step = jax.jit(lambda y, st: solver.step(fn, y, None, {}, st, frozenset())[:2])
+  init = eqx.filter_jit(lambda y: solver.init(fn, y, None, {}, f_struct, None, frozenset()))
+  step = eqx.filter_jit(lambda y, st: solver.step(fn, y, None, {}, st, frozenset())[:2])
   t = time.perf_counter()
   jax.block_until_ready(step(theta0, init(theta0)))
   compile_s = time.perf_counter() - t
