@@ -155,16 +155,20 @@ def window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
                   sensor: photointerrupter.Photointerrupter) -> np.ndarray:
   """(K,) largest factor in [0, 1] keeping every static height inside the sensor's window,
   by bisection (the heights are monotonic along a ray of small loads)."""
-  def inside(s):
-    h = heights_from_pose(params, static_pose(params, wrench * s[:, None]))
+  def inside(w, s):
+    h = heights_from_pose(params, static_pose(params, w * s[:, None]))
     return np.all(sensor.in_window(h), axis=1)
-  lo, hi = np.zeros(len(wrench)), np.ones(len(wrench))
-  full = inside(hi)
+  full = inside(wrench, np.ones(len(wrench)))
+  # only the loads that leave the window need the bisection
+  w = wrench[~full]
+  lo, hi = np.zeros(len(w)), np.ones(len(w))
   for _ in range(30):
     mid = (lo + hi) / 2
-    ok = inside(mid)
+    ok = inside(w, mid)
     lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
-  return np.where(full, 1.0, lo)
+  out = np.ones(len(wrench))
+  out[~full] = lo
+  return out
 
 
 def heights_from_pose(params: model_lib.ShellParams, pose: np.ndarray,
