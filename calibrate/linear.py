@@ -44,7 +44,10 @@ class LinearFit:
   def features(self, v: np.ndarray) -> np.ndarray:
     """(N, C * degree) standardised counts and their powers; dropped channels give 0."""
     v = check_array(v, "counts", self.mean.shape[0])
-    z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
+    if np.all(self.scale > 0):  # the usual case: no dropped channel, no mask to apply
+      z = (v - self.mean) / self.scale
+    else:
+      z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
     powers = [z]
     for _ in range(1, self.degree):  # products, not pow(): several times faster
       powers.append(powers[-1] * z)
