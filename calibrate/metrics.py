@@ -34,6 +34,15 @@ def median_pct_error(pred: np.ndarray, truth: np.ndarray, threshold: float) -> n
   return out
 
 
+def wrench_median_pct(pred: np.ndarray, truth: np.ndarray, force: float = 0.2,
+                      torque: float = 0.01) -> np.ndarray:
+  """(6,) `median_pct_error` of (N, 6) wrenches, forces over `force` N and torques over
+  `torque` N m, as the shell paper's Table I counts them."""
+  pred, truth = np.asarray(pred), np.asarray(truth)
+  return np.concatenate([median_pct_error(pred[:, :3], truth[:, :3], force),
+                         median_pct_error(pred[:, 3:], truth[:, 3:], torque)])
+
+
 def worst_pct_of_range(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
   """Largest |pred - truth| as % of the range of the truth, per column (shell paper Table I)."""
   return 100.0 * np.max(np.abs(np.asarray(pred) - truth), axis=0) / np.ptp(truth, axis=0)

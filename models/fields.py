@@ -218,13 +218,6 @@ def check(obj: Any, prefix: str = "") -> None:
       raise ValueError(f"{prefix}{name}={value!r} is out of range: allowed {allowed_text}")
 
 
-def require(ok: bool, name: str, allowed_text: str, value: Any) -> None:
-  """Raise ValueError naming an argument whose value lies outside what is allowed (for
-  function arguments that are not dataclass fields)."""
-  if not ok:
-    raise ValueError(f"{name}={value!r} is out of range: allowed {allowed_text}")
-
-
 Relation = tuple[bool, str, str, Any]
 Relations = Iterator[Relation]
 

@@ -5,7 +5,6 @@ runs on both rigs) and the effect ablation."""
 import json
 
 import numpy as np
-import pytest
 
 from benchmarks import run as cli
 from benchmarks.calibrators import accuracy_vs_time as avt

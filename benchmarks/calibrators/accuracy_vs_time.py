@@ -64,11 +64,12 @@ def settings(quick: bool, seed: int) -> AccuracyVsTime:
 
 def _data(ctx, rig: str) -> dict:
   """Training and test arrays of one sensor, and its error function."""
+  from benchmarks import footpad, shell
   from calibrate import metrics
   if rig == "footpad":
-    from sim.footpad import protocol, scene
-    recs = {n: scene.generate(s, ctx.progress(f"footpad {n} episodes"), ctx.use_cache)[0]
-            for n, s in protocol.scenes(protocol.base(ctx.quick, ctx.seed)).items()}
+    from sim.footpad import protocol
+    recs = {n: rec for n, (rec, _) in footpad.recordings(
+        ctx, protocol.base(ctx.quick, ctx.seed)).items()}
     lin = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
     net = recs["train"].on_path("asterisk")
     test = recs["test"].on_path()
@@ -78,16 +79,12 @@ def _data(ctx, rig: str) -> dict:
     return {"linear": (lin.counts, lin.wrench[:, :3]), "net": (net.counts, net.wrench[:, :3]),
             "test": (test.counts, test.wrench[:, :3]), "error": error,
             "metric": "mean NRMSE % over X, Y, Z (test paths)"}
-  from sim.shell import protocol, scene
-  recs = {n: scene.generate(s, ctx.progress(f"shell {n} frames"), ctx.use_cache)[0]
-          for n, s in protocol.scenes(protocol.base(ctx.quick, ctx.seed), ctx.quick,
-                                      ctx.seed).items()}
+  from sim.shell import protocol
+  _, recs, _ = shell.recordings(ctx, protocol.base(ctx.quick, ctx.seed))
   cal, test = recs["calibration"], recs["test"]
 
   def error(pred, truth):
-    return float(np.mean(np.concatenate([
-        metrics.median_pct_error(pred[:, :3], truth[:, :3], 0.2),
-        metrics.median_pct_error(pred[:, 3:], truth[:, 3:], 0.01)])))
+    return float(np.mean(metrics.wrench_median_pct(pred, truth)))
   return {"linear": (cal.counts, cal.wrench), "net": (cal.counts, cal.wrench),
           "test": (test.counts, test.wrench), "error": error,
           "metric": "mean median % error over the six axes (test run)"}

@@ -78,8 +78,7 @@ def _shell(ctx) -> tuple[list[dict], str]:
                          recs["calibration"].wrench)
     test = recs["test"]
     pred = est.predict(test.counts)
-    err = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
-                          metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
+    err = metrics.wrench_median_pct(pred, test.wrench)
     rows.append({"config": name, "effects": list(chosen),
                  "physics_s": sum(t.physics_cpu for t in timing),
                  "chain_s": sum(t.sensor_chain_cpu for t in timing),

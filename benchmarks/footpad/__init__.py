@@ -14,9 +14,9 @@ def protocol_settings(quick: bool, seed: int):
   return protocol.base(quick, seed)
 
 
-def recordings(ctx) -> dict:
-  """{"train", "test"} recordings of the protocol with the run's settings, from the cache
-  when simulated before."""
+def recordings(ctx, base=None) -> dict:
+  """{"train", "test"}: (recording, timing) of the protocol for `base` (default the run's
+  settings), from the cache when simulated before."""
   from sim.footpad import protocol, scene
-  return {name: scene.generate(s, ctx.progress(f"{name} episodes"), ctx.use_cache)
-          for name, s in protocol.scenes(ctx.settings).items()}
+  return {name: scene.generate(s, ctx.progress(f"footpad {name} episodes"), ctx.use_cache)
+          for name, s in protocol.scenes(ctx.settings if base is None else base).items()}

@@ -47,16 +47,22 @@ class Calibration:
     return self.scenes["calibration"]
 
 
-def calibrated(ctx, board: Optional[Any] = None) -> Calibration:
-  """Runs the protocol's scenes for `board` (default the run's settings) and fits the cubic
-  calibration on the calibration run."""
-  from calibrate import estimators
+def recordings(ctx, board: Optional[Any] = None) -> tuple[dict, dict, dict]:
+  """The protocol's scenes for `board` (default the run's settings), and their recordings
+  and timings ({"calibration", "test"} each), from the cache when simulated before."""
   from sim.shell import protocol, scene as scene_lib
   scenes = protocol.scenes(ctx.settings if board is None else board, ctx.quick, ctx.seed)
   runs, timings = {}, {}
   for name, scene in scenes.items():
     runs[name], timings[name] = scene_lib.generate(scene, ctx.progress(f"{name} frames"),
                                                    ctx.use_cache)
+  return scenes, runs, timings
+
+
+def calibrated(ctx, board: Optional[Any] = None) -> Calibration:
+  """`recordings` for `board` and the cubic calibration fitted on the calibration run."""
+  from calibrate import estimators
+  scenes, runs, timings = recordings(ctx, board)
   cal = runs["calibration"]
   return Calibration(scenes, runs, timings,
                      estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench))

@@ -61,8 +61,7 @@ def evaluate(point: dict) -> dict:
   cal, test = (scene_lib.simulate_static(dataclasses.replace(board, frames=n, seed=s))
                for n, s in zip(point["frames"], point["seeds"]))
   pred = linear.fit_linear(cal.counts, cal.wrench, degree=3).predict(test.counts)
-  median = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
-                           metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
+  median = metrics.wrench_median_pct(pred, test.wrench)
   worst = metrics.worst_pct_of_range(pred, test.wrench)
   return {"rank": quality.rank, "condition": quality.condition, "lost": list(quality.lost),
           "resolution": sd.tolist(), "window_range": window.tolist(),
@@ -79,7 +78,7 @@ def _points(ctx, designs: list[dict]) -> list[dict]:
   import zlib
   from sim.shell import scene as scene_lib
   frames = [n // 10 if ctx.quick else n for n in scene_lib.PAPER_FRAMES.values()]
-  board = json_safe(dataclasses.asdict(ctx.settings.board))
+  board = scene_lib.config(ctx.settings.board)
   out = []
   for d in designs:
     tag = zlib.crc32(repr(sorted(d.items())).encode())
@@ -87,11 +86,6 @@ def _points(ctx, designs: list[dict]) -> list[dict]:
     out.append({"design": d, "board": board, "frames": frames, "seeds": [int(s) for s in seeds],
                 "seed": int(seeds[0]), "box_samples": ctx.settings.box_samples})
   return out
-
-
-def json_safe(obj):
-  import json
-  return json.loads(json.dumps(obj, default=lambda v: getattr(v, "value", str(v))))
 
 
 def _fmt(v: float, scale: float = 1.0, width: int = 6, digits: int = 2) -> str:
@@ -197,8 +191,7 @@ def run(ctx) -> dict:
     fit = shell.calibrated(ctx, board)
     test = fit.runs["test"]
     pred = fit.estimator.predict(test.counts)
-    median = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
-                             metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
+    median = metrics.wrench_median_pct(pred, test.wrench)
     rays = geometry.ray_jacobian(board.params)
     closed = geometry.height_jacobian(board.params)
     confirmed.append({"design": r["design"], "static_fom": r["fom"],

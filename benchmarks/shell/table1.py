@@ -49,8 +49,7 @@ def run(ctx) -> dict:
   cal_out, test_out = (r.meta["out_of_window"] for r in (cal, test))
   cal_bottom, test_bottom = (r.meta["bottomed"] for r in (cal, test))
   pred = est.predict(test.counts)
-  median = np.concatenate([metrics.median_pct_error(pred[:, :3], test.wrench[:, :3], 0.2),
-                           metrics.median_pct_error(pred[:, 3:], test.wrench[:, 3:], 0.01)])
+  median = metrics.wrench_median_pct(pred, test.wrench)
   worst = metrics.worst_pct_of_range(pred, test.wrench)
   ctx.print(f"calibration {len(cal.counts)} frames, test {len(test.counts)} frames; physics "
             f"{steps:,} steps " + (f"in {seconds:.1f} s ({steps / seconds:,.0f} steps/s)"

@@ -155,18 +155,8 @@ def window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
                   sensor: photointerrupter.Photointerrupter) -> np.ndarray:
   """(K,) largest factor in [0, 1] keeping every static height inside the sensor's window,
   by bisection (the heights are monotonic along a ray of small loads)."""
-  # static_pose, then heights_from_pose, with their constants taken out of the loop (the
-  # same operations in the same order: the same numbers)
-  d = np.array(model_lib.FT_SITE) - model_lib.elastic_centre(params)
-  k = model_lib.mount_stiffness(params)
-  centre = model_lib.elastic_centre(params)
-  slopes, sensors = params.slopes(), params.sensor_positions()
-
   def inside(w, s):
-    ws = w * s[:, None]
-    pose = np.concatenate([ws[..., :3], ws[..., 3:] + np.cross(d, ws[..., :3])], axis=-1) / k
-    h = geometry.plane_heights(np, slopes, sensors, params.gap,
-                               geometry.rotation_xp(np, pose[..., 3:]), pose[..., :3], centre)
+    h = heights_from_pose(params, static_pose(params, w * s[:, None]))
     return np.all(sensor.in_window(h), axis=1)
   full = inside(wrench, np.ones(len(wrench)))
   # only the loads that leave the window need the bisection
