@@ -21,6 +21,7 @@ Executors:
 from __future__ import annotations
 
 import concurrent.futures
+import ctypes
 import dataclasses
 import json
 import multiprocessing
@@ -102,7 +103,33 @@ class PointStore:
     cache.atomic_write(self._path(point), lambda f: f.write(text.encode()))
 
 
+_MALLOC_TUNED = False
+
+
+def _keep_freed_memory() -> None:
+  """Lets this process keep the memory of freed arrays (glibc only; elsewhere a no-op).
+
+  A sweep point allocates and frees arrays of a few MB again and again. By default glibc
+  gives such memory back to the kernel and faults it in again, page by page, on the next
+  allocation: measured, that took 15 % of a design's time in `reflector_slope_sweep` (its
+  145 designs 12.0 s -> 10.5 s on 2 workers once kept). An mmap threshold of 32 MB
+  (glibc's largest) and a trim threshold of 512 MB keep it; numbers do not change.
+  """
+  global _MALLOC_TUNED
+  if _MALLOC_TUNED:
+    return
+  _MALLOC_TUNED = True
+  try:
+    libc = ctypes.CDLL("libc.so.6")
+  except OSError:
+    return
+  m_trim_threshold, m_mmap_threshold = -1, -3  # from glibc's malloc.h
+  libc.mallopt(m_mmap_threshold, 32 << 20)
+  libc.mallopt(m_trim_threshold, 512 << 20)
+
+
 def _call(fn, point):
+  _keep_freed_memory()
   try:
     return fn(point), None
   except Exception:  # reported with the point, the sweep goes on

@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 
 
 class Method(enum.Enum):
@@ -44,14 +45,7 @@ class LinearFit:
   def features(self, v: np.ndarray) -> np.ndarray:
     """(N, C * degree) standardised counts and their powers; dropped channels give 0."""
     v = check_array(v, "counts", self.mean.shape[0])
-    if np.all(self.scale > 0):  # the usual case: no dropped channel, no mask to apply
-      z = (v - self.mean) / self.scale
-    else:
-      z = np.divide(v - self.mean, self.scale, out=np.zeros_like(v), where=self.scale > 0)
-    powers = [z]
-    for _ in range(1, self.degree):  # products, not pow(): several times faster
-      powers.append(powers[-1] * z)
-    return np.concatenate(powers, axis=1)
+    return _powers(_standardise(v, self.mean, self.scale), self.degree)
 
   def predict(self, v: np.ndarray) -> np.ndarray:
     """(N, A) forces from (N, C) counts."""
@@ -70,8 +64,8 @@ def check_array(a, name: str, columns: int | None = None) -> np.ndarray:
     raise ValueError(f"{name} must be 2-D (samples, channels), got shape {a.shape}")
   if columns is not None and a.shape[1] != columns:
     raise ValueError(f"{name} has {a.shape[1]} columns: the fit expects {columns}")
-  bad = ~np.isfinite(a).all(axis=1)
-  if bad.any():
+  if not np.isfinite(a).all():  # the whole array first: eight times faster than per row
+    bad = ~np.isfinite(a).all(axis=1)
     raise ValueError(f"{name}: {bad.sum()} of {len(a)} rows hold NaN or inf "
                      f"(first at row {np.flatnonzero(bad)[0]}); drop them first")
   return a
@@ -105,14 +99,19 @@ def fit_linear(v: np.ndarray, f: np.ndarray, degree: int = 1, method: Method = M
   if len(v) <= n_par:
     raise ValueError(f"{len(v)} samples cannot fit {n_par} parameters per axis: "
                      f"need more than {n_par}")
-  mean = v.mean(axis=0)
-  scale = v.std(axis=0)
+  # statistics per channel along the contiguous rows of the transpose: numpy reduces those
+  # about 3x faster than the short columns of v
+  vt = np.ascontiguousarray(v.T)
+  mean = vt.mean(axis=1)
+  scale = vt.std(axis=1)
   dead = scale <= 1e-12 * np.maximum(np.abs(mean), 1.0)
   if dead.any():
     warnings.warn(f"channels {np.flatnonzero(dead).tolist()} are constant: dropped from the fit")
   fit = LinearFit(mean, np.where(dead, 0.0, scale), np.zeros((0, 0)), np.zeros(0), 0, degree)
   keep = np.tile(~dead, degree)
-  a = np.column_stack([fit.features(v)[:, keep], np.ones(len(v))])
+  # the live channels' powers and the bias column, in the column-major order LAPACK's QR
+  # works in (a row-major matrix would be transposed into a copy first)
+  a = _powers(_standardise(v[:, ~dead], mean[~dead], scale[~dead]), degree, bias=True)
   sol, rank = _lstsq(a, f, method, rcond)
   if rank < a.shape[1]:
     warnings.warn(f"features are rank-deficient ({rank} of {a.shape[1]}): "
@@ -122,16 +121,46 @@ def fit_linear(v: np.ndarray, f: np.ndarray, degree: int = 1, method: Method = M
   return dataclasses.replace(fit, coef=coef, bias=sol[-1], rank=rank)
 
 
+def _standardise(v: np.ndarray, mean: np.ndarray, scale: np.ndarray) -> np.ndarray:
+  """(v - mean) / scale, 0 where scale is 0 (a dropped channel)."""
+  if np.all(scale > 0):  # the usual case: no dropped channel, no mask to apply
+    return (v - mean) / scale
+  return np.divide(v - mean, scale, out=np.zeros_like(v), where=scale > 0)
+
+
+def _powers(z: np.ndarray, degree: int, bias: bool = False) -> np.ndarray:
+  """(N, C * degree [+ 1]) column-major [z, z^2, ... z^degree (, 1)]: products, not pow(),
+  several times faster."""
+  n, c = z.shape
+  out = np.empty((n, c * degree + bias), order="F")
+  out[:, :c] = z
+  for k in range(1, degree):
+    np.multiply(out[:, (k - 1) * c:k * c], z, out=out[:, k * c:(k + 1) * c])
+  if bias:
+    out[:, -1] = 1.0
+  return out
+
+
 def _lstsq(a: np.ndarray, f: np.ndarray, method: Method, rcond: float):
   """Solution of a @ x ~ f (QR: basic, SVD: minimum-norm; equal at full rank) and its rank."""
   if method is Method.QR:
-    # a is this module's own finite feature matrix: no copy, no second finiteness scan
-    q, r, perm = scipy.linalg.qr(a, mode="economic", pivoting=True, overwrite_a=True,
-                                 check_finite=False)
+    # LAPACK's pivoted QR, then Q^T f by the reflectors themselves (dormqr): forming Q and
+    # multiplying took a third longer on the shell's 97526 x 25 cubic features. `a` is this
+    # module's own finite column-major feature matrix: factored in place, no copy.
+    qr, perm, tau, _, info = scipy.linalg.lapack.dgeqp3(a, overwrite_a=True)
+    if info != 0:
+      raise RuntimeError(f"LAPACK dgeqp3 failed (info={info})")
+    n = a.shape[1]
+    c = np.asfortranarray(f, dtype=np.float64)
+    lwork = int(scipy.linalg.lapack.dormqr("L", "T", qr, tau, c, -1)[1][0])
+    qtf, _, info = scipy.linalg.lapack.dormqr("L", "T", qr, tau, c, lwork)
+    if info != 0:
+      raise RuntimeError(f"LAPACK dormqr failed (info={info})")
+    r = np.triu(qr[:n])
     d = np.abs(np.diag(r))
     rank = int(np.sum(d > rcond * d[0]))
-    sol = np.zeros((a.shape[1], f.shape[1]))
-    sol[perm[:rank]] = scipy.linalg.solve_triangular(r[:rank, :rank], q[:, :rank].T @ f)
+    sol = np.zeros((n, f.shape[1]))
+    sol[perm[:rank] - 1] = scipy.linalg.solve_triangular(r[:rank, :rank], qtf[:rank])
     return sol, rank
   u, s, vt = scipy.linalg.svd(a, full_matrices=False)
   rank = int(np.sum(s > rcond * s[0]))

@@ -168,9 +168,8 @@ def window_shares(params: model_lib.ShellParams, sensor: photointerrupter.Photoi
                   loads: np.ndarray) -> tuple[float, float]:
   """(share of `loads` whose static pose keeps every sensor in its window, share that drives
   a reflector to or into the PCB)."""
-  h = scene_lib.heights_from_pose(params, scene_lib.static_pose(params, loads))
-  return (float(np.mean(np.all(sensor.in_window(h), axis=1))),
-          float(np.mean(np.any(h <= 0.0, axis=1))))
+  return scene_lib.frame_shares(
+      sensor, scene_lib.heights_from_pose(params, scene_lib.static_pose(params, loads)))
 
 
 def objective_terms(xp, sd, window_range):

@@ -14,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.signal
 
 from models import fields
 from models.fields import setting
@@ -119,6 +118,7 @@ def _wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,
   kick = rng.normal(0.0, rms * np.sqrt(1 - phi**2), shape)
   kick[0] = rng.normal(0.0, rms, shape[1])
   # out[i] = phi out[i-1] + kick[i], out[0] = kick[0]
+  import scipy.signal  # here: its import takes 0.4 s, which every sweep worker would pay
   return scipy.signal.lfilter([1.0], [1.0, -phi], kick, axis=0)
 
 

@@ -152,22 +152,48 @@ def static_pose(params: model_lib.ShellParams, wrench: np.ndarray) -> np.ndarray
 
 
 def window_scale(params: model_lib.ShellParams, wrench: np.ndarray,
-                  sensor: photointerrupter.Photointerrupter) -> np.ndarray:
+                 sensor: photointerrupter.Photointerrupter, tol: float = 2.0**-30
+                 ) -> np.ndarray:
   """(K,) largest factor in [0, 1] keeping every static height inside the sensor's window,
-  by bisection (the heights are monotonic along a ray of small loads)."""
-  def inside(w, s):
+  to within `tol`; the returned factor itself keeps them inside.
+
+  Along a ray of small loads the heights are monotonic, so the worst excess over the window,
+  g(s) = max_j max(low - h_j, h_j - high), crosses 0 once between the rest (g < 0) and the
+  full load. The heights are nearly linear in s: regula falsi with the Illinois rule finds
+  the crossing in about 6 evaluations where bisection needs 30 (measured on the paper's
+  load box), and keeps the bracket, so the inside end is returned.
+  """
+  low, high = sensor.window
+
+  def excess(w, s):
     h = heights_from_pose(params, static_pose(params, w * s[:, None]))
-    return np.all(sensor.in_window(h), axis=1)
-  full = inside(wrench, np.ones(len(wrench)))
-  # only the loads that leave the window need the bisection
-  w = wrench[~full]
-  lo, hi = np.zeros(len(w)), np.ones(len(w))
-  for _ in range(30):
-    mid = (lo + hi) / 2
-    ok = inside(w, mid)
-    lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return np.max(np.maximum(low - h, h - high), axis=1)
+
+  g1 = excess(wrench, np.ones(len(wrench)))
   out = np.ones(len(wrench))
-  out[~full] = lo
+  todo = np.flatnonzero(g1 > 0)  # only the loads that leave the window need the search
+  w = wrench[todo]
+  lo, hi = np.zeros(len(w)), np.ones(len(w))
+  g_lo, g_hi = excess(w, lo), g1[todo]
+  side = np.zeros(len(w), int)  # which end moved last: -1 low, +1 high
+  for _ in range(100):
+    open_ = hi - lo > tol
+    if not open_.any():
+      break
+    k = np.flatnonzero(open_)
+    # the secant's root, kept off the ends so that the bracket always shrinks
+    s = (lo[k] * g_hi[k] - hi[k] * g_lo[k]) / (g_hi[k] - g_lo[k])
+    margin = 0.01 * (hi[k] - lo[k])
+    s = np.clip(s, lo[k] + margin, hi[k] - margin)
+    g = excess(w[k], s)
+    ok = g <= 0
+    # Illinois: an end that stays put twice running has its value halved
+    g_hi[k] = np.where(ok & (side[k] == -1), g_hi[k] / 2, g_hi[k])
+    g_lo[k] = np.where(~ok & (side[k] == 1), g_lo[k] / 2, g_lo[k])
+    lo[k], g_lo[k] = np.where(ok, s, lo[k]), np.where(ok, g, g_lo[k])
+    hi[k], g_hi[k] = np.where(ok, hi[k], s), np.where(ok, g_hi[k], g)
+    side[k] = np.where(ok, -1, 1)
+  out[todo] = lo
   return out
 
 
@@ -246,11 +272,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   t1 = time.perf_counter()
   pose = np.concatenate([p[0] for p in parts])
   height, counts = sense(scene, pose, scene.seed)
-  out = float(np.mean(~np.all(scene.sensor.in_window(height), axis=1)))
-  # a missed facet is no contact: bottoming is judged on the unbounded facet planes
-  unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
-                                                                               pose)
-  bottomed = float(np.mean(np.any(unbounded <= 0.0, axis=1)))
+  out, bottomed = _shares(scene, pose, height)
   _warn_bottomed(scene, bottomed)
   time_in_session = np.concatenate([np.arange(1, len(p[0]) + 1) / FRAME_RATE for p in parts])
   rec = recording.Recording(
@@ -282,15 +304,33 @@ def simulate_static(scene: ShellScene) -> recording.Recording:
   loads = hand_loads(scene, scene.frames, np.random.default_rng(scene.seed), 1 / FRAME_RATE)
   pose = static_pose(scene.params, loads)
   height, counts = sense(scene, pose, scene.seed)
-  unbounded = height if "ray_miss" not in scene.effects else heights_from_pose(scene.params,
-                                                                               pose)
+  out, bottomed = _shares(scene, pose, height)
   return recording.Recording(
       time=np.arange(1, scene.frames + 1) / FRAME_RATE, counts=counts, wrench=loads,
       episode=np.zeros(scene.frames, np.int32), height=height, pose=pose, applied=loads,
       meta={"scene": "shell", "path": "static", "config": config(scene),
             "effects": list(scene.effects), "seed": scene.seed,
-            "out_of_window": float(np.mean(~np.all(scene.sensor.in_window(height), axis=1))),
-            "bottomed": float(np.mean(np.any(unbounded <= 0.0, axis=1)))})
+            "out_of_window": out, "bottomed": bottomed})
+
+
+def frame_shares(sensor: photointerrupter.Photointerrupter, height: np.ndarray
+                 ) -> tuple[float, float]:
+  """(share of frames (rows of `height` (F, 8), m) with every sensor inside its window,
+  share with a reflector at or into the PCB)."""
+  # over the sensors of each frame, on the transposed heights: numpy reduces eight
+  # contiguous rows about 8x faster than the eight short columns of each frame
+  h = np.ascontiguousarray(np.asarray(height, float).T)
+  inside = np.logical_and.reduce(sensor.in_window(h), axis=0)
+  return float(np.mean(inside)), float(np.mean(np.logical_or.reduce(h <= 0.0, axis=0)))
+
+
+def _shares(scene: ShellScene, pose: np.ndarray, height: np.ndarray) -> tuple[float, float]:
+  """(share of frames out of the window, share bottomed) of a run; a missed facet is no
+  contact, so bottoming is judged on the unbounded facet planes."""
+  inside, bottomed = frame_shares(scene.sensor, height)
+  if "ray_miss" in scene.effects:
+    bottomed = frame_shares(scene.sensor, heights_from_pose(scene.params, pose))[1]
+  return 1.0 - inside, bottomed
 
 
 def _warn_rank(scene: ShellScene) -> None:
@@ -318,8 +358,9 @@ def versions() -> dict[str, str]:
   # "physics" changes whenever the model or the sensor chain does, so stale cached
   # recordings are not reused.
   # 2 = heights through the matrix form of the closed form (equal to 1e-18 m)
+  # 3 = window_scale by regula falsi (hand loads within 1e-9 of the bisection's)
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
-          "physics": "2"}
+          "physics": "3"}
 
 
 def generate(scene: ShellScene, progress: Optional[Progress] = None, use_cache: bool = True
