@@ -23,18 +23,21 @@ from __future__ import annotations
 import concurrent.futures
 import ctypes
 import dataclasses
-import json
+import hashlib
 import multiprocessing
 import os
 import pathlib
 import traceback
+import warnings
 from typing import Any, Callable, Iterator, Literal, Optional
+
+from models import errors, files
 
 Point = dict[str, Any]
 Progress = Callable[[int, int], None]
 
 
-class ExecutorError(RuntimeError):
+class ExecutorError(errors.UserError, RuntimeError):
   """An executor could not be started or reached; the message says what to change."""
 
 
@@ -91,16 +94,26 @@ class PointStore:
     if not path.exists():
       return None
     try:
-      saved = json.loads(path.read_text())
+      saved = files.from_json(path.read_text())
     except (OSError, ValueError):
       return None  # unreadable: run the point again
-    return saved["result"] if saved.get("point") == json.loads(json.dumps(point)) else None
+    if not isinstance(saved, dict) or saved.get("point") != files.from_json(
+        files.json_text(point)):
+      return None
+    if saved.get("sha256") != _digest(saved.get("result")):
+      warnings.warn(f"finished point {path} does not match its checksum (damaged or edited): "
+                    f"running it again", stacklevel=2)
+      return None
+    return saved["result"]
 
   def save(self, point: Point, result: Any) -> None:
-    from sim import cache
     self.folder.mkdir(parents=True, exist_ok=True)
-    text = json.dumps({"point": point, "result": result}, sort_keys=True)
-    cache.atomic_write(self._path(point), lambda f: f.write(text.encode()))
+    files.write_text(self._path(point), files.json_text(
+        {"point": point, "result": result, "sha256": _digest(result)}, sort_keys=True))
+
+
+def _digest(result: Any) -> str:
+  return hashlib.sha256(files.json_text(result, sort_keys=True).encode()).hexdigest()
 
 
 _MALLOC_TUNED = False

@@ -16,6 +16,8 @@ import pkgutil
 import sys
 from typing import Any, Callable, Mapping, Optional
 
+from models import errors
+
 Progress = Callable[[int, int], None]
 RIGS = ("footpad", "shell")
 PACKAGES = RIGS + ("calibrators",)  # the calibrators' benchmarks take both rigs' data
@@ -127,5 +129,5 @@ def get(name: str) -> Benchmark:
   """The benchmark `name`; ValueError listing the known names otherwise."""
   known = all_benchmarks()
   if name not in known:
-    raise ValueError(f"unknown benchmark {name!r}: allowed {', '.join(known)}")
+    raise errors.SettingError(f"unknown benchmark {name!r}: allowed {', '.join(known)}")
   return known[name]

@@ -12,9 +12,11 @@ import json
 import pathlib
 import sys
 import time
+import traceback
 from typing import Optional
 
-from benchmarks import executors, registry
+from benchmarks import executors, outputs, registry
+from models import errors, files
 
 
 def _parse_sets(items: list[str]) -> dict[str, str]:
@@ -22,7 +24,7 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
   for item in items:
     key, eq, value = item.partition("=")
     if not eq or not key.strip():
-      raise ValueError(f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
+      raise errors.SettingError(f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
     out[key.strip()] = value.strip()
   return out
 
@@ -117,7 +119,7 @@ def main(argv: Optional[list[str]] = None) -> int:
   try:
     overrides = _parse_sets(args.sets)
     applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
-  except ValueError as err:  # a setting out of range: one line, no traceback
+  except errors.UserError as err:  # a setting out of range: one line, no traceback
     print(f"error: {err}", file=sys.stderr)
     return 2
   if args.workers is not None and not 1 <= args.workers <= 1024:
@@ -125,20 +127,47 @@ def main(argv: Optional[list[str]] = None) -> int:
   if args.address and args.executor != "dask":
     parser.error("--address joins a Dask scheduler: add --executor dask")
   out = args.out or pathlib.Path("results") / args.name
+  try:  # before any simulation: a run that cannot write its results does not start
+    lock = outputs.claim(out)
+  except errors.UserError as err:
+    print(f"error: {err}", file=sys.stderr)
+    return 2
+  try:
+    return _run(bench, args, applied, overrides, out)
+  finally:
+    lock.release()
+
+
+def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path) -> int:
+  from sim import cache
   spec = executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
                                 args.tls_cert, args.tls_key)
   ctx = registry.Context(args.quick, args.seed, out, applied, overrides, not args.no_cache,
                          not args.no_progress, spec)
+  for folder in (cache.cache_dir(), out):  # what killed runs left half-written
+    cache.clean_orphans(folder)
   t0 = time.perf_counter()
   try:
     result = bench.run(ctx)
-  except (ValueError, executors.ExecutorError) as err:  # the user's to fix: one line
+  except errors.UserError as err:  # the user's to fix: one line
     print(f"error: {err}", file=sys.stderr)
     return 2
+  except KeyboardInterrupt:
+    print("interrupted: finished points and cached recordings are kept; rerun the same "
+          "command to go on", file=sys.stderr)
+    return 130
+  except Exception:  # not the user's mistake: a short message and the saved traceback
+    path = out / "traceback.txt"
+    files.write_text(path, traceback.format_exc())
+    kind, value = sys.exc_info()[:2]
+    print(f"internal error (a bug in the testbench, not in your settings): {kind.__name__}: "
+          f"{value}\n  the traceback is in {path}; please report it with that file",
+          file=sys.stderr)
+    return 3
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
              "settings": overrides, "wall_seconds": time.perf_counter() - t0, **result}
-  out.mkdir(parents=True, exist_ok=True)
-  (out / "metrics.json").write_text(json.dumps(metrics, indent=1, sort_keys=True, default=str))
+  files.write_text(out / "metrics.json",
+                   files.json_text(metrics, indent=1, sort_keys=True, default=str))
   print(f"wrote {out / 'metrics.json'}")
   return 0
 

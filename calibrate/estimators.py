@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import json
+import hashlib
 import pathlib
+import zipfile
 from typing import Optional
 
 import numpy as np
 
 from calibrate import linear, mlp
+from models import errors, files
 
 
 class Kind(enum.Enum):
@@ -43,7 +45,8 @@ class Estimator:
     return f + self.net.predict(counts) if self.kind is Kind.LSANN else f
 
   def save(self, path) -> None:
-    """Writes the arrays and settings to one .npz file."""
+    """Writes the arrays and settings to one .npz file, atomically, with the format tag and
+    a SHA-256 of the arrays that `load` checks."""
     arrays = {}
     if self.linear is not None:
       for f in ("mean", "scale", "coef", "bias"):
@@ -52,29 +55,76 @@ class Estimator:
       arrays.update(net_w1=self.net.w1, net_w2=self.net.w2, net_x_lo=self.net.x_scale.lo,
                     net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
                     net_y_hi=self.net.y_scale.hi)
-    meta = {"kind": self.kind.value, "format": 1}
+    meta = {"kind": self.kind.value, "format": FORMAT, "version": VERSION,
+            "sha256": _digest(arrays)}
     if self.linear is not None:
       meta.update(rank=self.linear.rank, degree=self.linear.degree)
-    np.savez(pathlib.Path(path), meta=json.dumps(meta), **arrays)
+    files.atomic_write(pathlib.Path(path),
+                       lambda f: np.savez(f, meta=files.json_text(meta), **arrays))
 
   @staticmethod
   def load(path) -> "Estimator":
-    with np.load(pathlib.Path(path)) as z:
-      meta = json.loads(str(z["meta"]))
+    """Reads a file `save` wrote, checked: format tag and version, checksum, shapes and
+    finiteness of every array.
+
+    Raises:
+      errors.DataError naming the file and what is wrong with it.
+    """
+    path = pathlib.Path(path)
+    try:
+      with np.load(path) as z:
+        meta = files.from_json(str(z["meta"]))
+        arrays = {k: z[k] for k in z.files if k != "meta"}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+      raise errors.DataError(f"estimator {path}: cannot be read ({err})") from None
+    files.check_header(meta, path, "estimator", FORMAT, VERSION, _digest(arrays))
+    bad = [k for k, a in arrays.items() if not np.isfinite(a).all()]
+    if bad:
+      raise errors.DataError(f"estimator {path}: {', '.join(bad)} hold NaN or inf")
+    try:
+      kind = Kind(meta["kind"])
       lin = net = None
-      if "linear_coef" in z:
-        lin = linear.LinearFit(z["linear_mean"], z["linear_scale"], z["linear_coef"],
-                               z["linear_bias"], meta["rank"], meta["degree"])
-      if "net_w1" in z:
-        net = mlp.MLP(z["net_w1"], z["net_w2"], mlp.MinMax(z["net_x_lo"], z["net_x_hi"]),
-                      mlp.MinMax(z["net_y_lo"], z["net_y_hi"]))
-    return Estimator(Kind(meta["kind"]), lin, net)
+      if "linear_coef" in arrays:
+        lin = linear.LinearFit(arrays["linear_mean"], arrays["linear_scale"],
+                               arrays["linear_coef"], arrays["linear_bias"], int(meta["rank"]),
+                               int(meta["degree"]))
+        c = len(lin.mean)
+        if lin.scale.shape != (c,) or lin.coef.shape[0] != c * lin.degree or \
+           lin.bias.shape != lin.coef.shape[1:]:
+          raise ValueError("the linear stage's arrays do not fit together")
+      if "net_w1" in arrays:
+        net = mlp.MLP(arrays["net_w1"], arrays["net_w2"],
+                      mlp.MinMax(arrays["net_x_lo"], arrays["net_x_hi"]),
+                      mlp.MinMax(arrays["net_y_lo"], arrays["net_y_hi"]))
+        h, inputs = net.w1.shape
+        if net.w2.shape[1] != h + 1 or net.x_scale.lo.shape != (inputs - 1,) or \
+           net.y_scale.lo.shape != (net.w2.shape[0],):
+          raise ValueError("the network's arrays do not fit together")
+      if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None):
+        raise ValueError(f"a {kind.value} estimator needs its "
+                         f"{'linear stage' if lin is None else 'network'}")
+    except (KeyError, ValueError, TypeError) as err:
+      raise errors.DataError(f"estimator {path}: {err}") from None
+    return Estimator(kind, lin, net)
+
+
+FORMAT = "testbench-estimator"
+VERSION = 2  # 1: no format tag or checksum
+
+
+def _digest(arrays: dict[str, np.ndarray]) -> str:
+  h = hashlib.sha256()
+  for k in sorted(arrays):
+    a = np.ascontiguousarray(arrays[k])
+    h.update(f"{k}{a.dtype.str}{a.shape}".encode())
+    h.update(a.tobytes())
+  return h.hexdigest()
 
 
 def split_validation(n: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
   """Random (train, validation) indices, MATLAB `dividerand` style, from one integer seed."""
   if not 0 < fraction < 1:
-    raise ValueError(f"validation fraction {fraction!r} is out of range: allowed (0, 1)")
+    raise errors.SettingError(f"validation fraction {fraction!r} is out of range: allowed (0, 1)")
   idx = np.random.default_rng(np.random.SeedSequence([seed, 1])).permutation(n)
   n_val = max(1, int(round(fraction * n)))
   return np.sort(idx[n_val:]), np.sort(idx[:n_val])

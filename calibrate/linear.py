@@ -18,6 +18,8 @@ import numpy as np
 import scipy.linalg
 import scipy.linalg.lapack
 
+from models import errors
+
 
 class Method(enum.Enum):
   QR = "qr"
@@ -58,16 +60,16 @@ def check_array(a, name: str, columns: int | None = None) -> np.ndarray:
   if a.dtype == np.float32:
     warnings.warn(f"{name} is float32: promoted to float64 (fits compute in float64)")
   if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-    raise ValueError(f"{name} must be numeric, got dtype {a.dtype}")
+    raise errors.DataError(f"{name} must be numeric, got dtype {a.dtype}")
   a = a.astype(np.float64)
   if a.ndim != 2:
-    raise ValueError(f"{name} must be 2-D (samples, channels), got shape {a.shape}")
+    raise errors.DataError(f"{name} must be 2-D (samples, channels), got shape {a.shape}")
   if columns is not None and a.shape[1] != columns:
-    raise ValueError(f"{name} has {a.shape[1]} columns: the fit expects {columns}")
+    raise errors.DataError(f"{name} has {a.shape[1]} columns: the fit expects {columns}")
   if not np.isfinite(a).all():  # the whole array first: eight times faster than per row
     bad = ~np.isfinite(a).all(axis=1)
-    raise ValueError(f"{name}: {bad.sum()} of {len(a)} rows hold NaN or inf "
-                     f"(first at row {np.flatnonzero(bad)[0]}); drop them first")
+    raise errors.DataError(f"{name}: {bad.sum()} of {len(a)} rows hold NaN or inf "
+                           f"(first at row {np.flatnonzero(bad)[0]}); drop them first")
   return a
 
 
@@ -75,7 +77,8 @@ def check_pair(v, f) -> tuple[np.ndarray, np.ndarray]:
   """Counts (N, C) and forces (N, A) checked as a training pair."""
   v, f = check_array(v, "counts"), check_array(f, "forces")
   if len(v) != len(f):
-    raise ValueError(f"counts have {len(v)} samples but forces have {len(f)}: they must match")
+    raise errors.DataError(
+        f"counts have {len(v)} samples but forces have {len(f)}: they must match")
   return v, f
 
 
@@ -93,18 +96,20 @@ def fit_linear(v: np.ndarray, f: np.ndarray, degree: int = 1, method: Method = M
   """
   v, f = check_pair(v, f)
   if not (isinstance(degree, int) and 1 <= degree <= 5):
-    raise ValueError(f"degree={degree!r} is out of range: allowed integers 1..5")
+    raise errors.SettingError(f"degree={degree!r} is out of range: allowed integers 1..5")
   method = Method(method)
   n_par = v.shape[1] * degree + 1
   if len(v) <= n_par:
-    raise ValueError(f"{len(v)} samples cannot fit {n_par} parameters per axis: "
-                     f"need more than {n_par}")
+    raise errors.DataError(f"{len(v)} samples cannot fit {n_par} parameters per axis: "
+                           f"need more than {n_par}")
   # statistics per channel along the contiguous rows of the transpose: numpy reduces those
   # about 3x faster than the short columns of v
   vt = np.ascontiguousarray(v.T)
   mean = vt.mean(axis=1)
   scale = vt.std(axis=1)
-  dead = scale <= 1e-12 * np.maximum(np.abs(mean), 1.0)
+  # relative to the channel's own level: a constant channel's spread is rounding, ~1e-16 of
+  # its mean (exactly 0 at mean 0), while a live channel may be in any units (1e-9 V...)
+  dead = scale <= 1e-12 * np.abs(mean)
   if dead.any():
     warnings.warn(f"channels {np.flatnonzero(dead).tolist()} are constant: dropped from the fit")
   fit = LinearFit(mean, np.where(dead, 0.0, scale), np.zeros((0, 0)), np.zeros(0), 0, degree)

@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from calibrate import linear
+from models import errors
 
 
 
@@ -81,20 +82,24 @@ class LMConfig:
 
   def validate(self) -> None:
     if not (isinstance(self.hidden, (int, np.integer)) and 1 <= self.hidden <= 1000):
-      raise ValueError(f"hidden={self.hidden!r} is out of range: allowed integers 1..1000")
+      raise errors.SettingError(
+          f"hidden={self.hidden!r} is out of range: allowed integers 1..1000")
     for name in ("mu", "mu_max", "min_grad"):
       if not getattr(self, name) > 0:
-        raise ValueError(f"{name}={getattr(self, name)!r} must be > 0")
+        raise errors.SettingError(f"{name}={getattr(self, name)!r} must be > 0")
     if not 0 < self.mu_dec < 1 < self.mu_inc:
-      raise ValueError(f"need 0 < mu_dec < 1 < mu_inc, got {self.mu_dec}, {self.mu_inc}")
+      raise errors.SettingError(
+          f"need 0 < mu_dec < 1 < mu_inc, got {self.mu_dec}, {self.mu_inc}")
     if not (isinstance(self.epochs, (int, np.integer)) and self.epochs >= 1):
-      raise ValueError(f"epochs={self.epochs!r} must be an integer >= 1")
+      raise errors.SettingError(f"epochs={self.epochs!r} must be an integer >= 1")
     if not (isinstance(self.max_fail, (int, np.integer)) and self.max_fail >= 1):
-      raise ValueError(f"max_fail={self.max_fail!r} must be an integer >= 1")
+      raise errors.SettingError(f"max_fail={self.max_fail!r} must be an integer >= 1")
     if self.backend not in ("own", "jaxopt"):
-      raise ValueError(f"backend={self.backend!r} is unknown: allowed 'own', 'jaxopt'")
+      raise errors.SettingError(
+          f"backend={self.backend!r} is unknown: allowed 'own', 'jaxopt'")
     if self.damping not in ("trainlm", "nielsen"):
-      raise ValueError(f"damping={self.damping!r} is unknown: allowed 'trainlm', 'nielsen'")
+      raise errors.SettingError(
+          f"damping={self.damping!r} is unknown: allowed 'trainlm', 'nielsen'")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -351,14 +356,15 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   x, y = linear.check_pair(x, y)
   x_val, y_val = linear.check_pair(x_val, y_val)
   if x_val.shape[1] != x.shape[1] or y_val.shape[1] != y.shape[1]:
-    raise ValueError(f"validation columns {x_val.shape[1]}/{y_val.shape[1]} differ from "
-                     f"training columns {x.shape[1]}/{y.shape[1]}")
+    raise errors.DataError(f"validation columns {x_val.shape[1]}/{y_val.shape[1]} differ from "
+                           f"training columns {x.shape[1]}/{y.shape[1]}")
   h, d, o = int(config.hidden), x.shape[1], y.shape[1]
   n_par = h * (d + 1) + o * (h + 1)
   if y.size <= n_par:
-    raise ValueError(f"{len(x)} samples x {o} outputs cannot fit {n_par} network parameters")
+    raise errors.DataError(
+        f"{len(x)} samples x {o} outputs cannot fit {n_par} network parameters")
   if len(x_val) == 0:
-    raise ValueError("the validation set is empty: hold out some samples")
+    raise errors.DataError("the validation set is empty: hold out some samples")
   xs, ys = MinMax.fit(x), MinMax.fit(y)
   xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
   xvj = jnp.asarray(xs.forward(x_val))

@@ -26,6 +26,8 @@ from typing import Any, Iterator, Mapping, Optional
 
 import numpy as np
 
+from models import errors
+
 _INTERVAL = re.compile(r"\s*([\[(])\s*([^,\s]+)\s*,\s*([^,\s]+)\s*([\])])\s*")
 _ENTRY = re.compile(r"^ {4}(\w+(?:, \w+)*): ?(.*)$")
 
@@ -174,7 +176,7 @@ def check_value(key: str, value: Any, tp, meta) -> None:
   if value is None and is_optional:
     return
   if not _fits(value, inner, meta):
-    raise ValueError(f"{key}={value!r} is out of range: allowed {allowed(tp, meta)}")
+    raise errors.SettingError(f"{key}={value!r} is out of range: allowed {allowed(tp, meta)}")
 
 
 def _fits(value, tp, meta) -> bool:
@@ -215,7 +217,7 @@ def check(obj: Any, prefix: str = "") -> None:
       check_value(prefix + f.name, value, hints[f.name], f.metadata)
   for ok, name, allowed_text, value in getattr(obj, "relations", lambda: ())():
     if not ok:
-      raise ValueError(f"{prefix}{name}={value!r} is out of range: allowed {allowed_text}")
+      raise errors.SettingError(f"{prefix}{name}={value!r} is out of range: allowed {allowed_text}")
 
 
 Relation = tuple[bool, str, str, Any]

@@ -7,10 +7,13 @@ import hashlib
 import json
 import os
 import pathlib
-import tempfile
+import warnings
+import zipfile
 from typing import Any, Callable
 
 import numpy as np
+
+from models import files
 
 
 def cache_dir() -> pathlib.Path:
@@ -24,21 +27,47 @@ def content_key(config: dict[str, Any]) -> str:
   return hashlib.sha256(json.dumps(config, sort_keys=True, default=str).encode()).hexdigest()[:24]
 
 
-def atomic_write(path: pathlib.Path, write: Callable) -> None:
-  """Calls write(file) on a temporary file beside `path`, then renames it into place, so a
-  reader never sees a half-written file."""
-  with tempfile.NamedTemporaryFile(dir=path.parent, prefix=path.name, suffix=".tmp",
-                                   delete=False) as f:
-    write(f)
-  os.replace(f.name, path)
+def clean_orphans(folder: pathlib.Path) -> int:
+  """Removes the temporary files that writers killed mid-write left under `folder` (their
+  process is gone; a live writer keeps its own); returns how many."""
+  removed = 0
+  for tmp in pathlib.Path(folder).rglob(f"*{files.TMP_SUFFIX}"):
+    pid = files.writer_pid(tmp)
+    if pid is None or pid == os.getpid() or files.process_alive(pid):
+      continue
+    try:
+      tmp.unlink()
+      removed += 1
+    except OSError:
+      pass  # gone already, or not ours to remove
+  return removed
 
 
 def cached_array(kind: str, key: dict[str, Any], compute: Callable[[], np.ndarray]) -> np.ndarray:
-  """An array from `cache_dir()/kind/`, computed and stored on a miss."""
-  path = cache_dir() / kind / (content_key(key) + ".npy")
+  """An array from `cache_dir()/kind/`, computed and stored on a miss.
+
+  The file holds the array and a SHA-256 of its bytes, dtype and shape: a damaged or edited
+  file is reported (a warning naming it), deleted and computed again."""
+  path = cache_dir() / kind / (content_key(key) + ".npz")
   if path.exists():
-    return np.load(path)
+    try:
+      with np.load(path) as z:
+        value, digest = z["value"], str(z["sha256"])
+      if digest != _array_digest(value):
+        raise ValueError("its array does not match the checksum written with it")
+      return value
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+      warnings.warn(f"cached {kind} {path} is damaged ({err}): deleted, computing it again",
+                    stacklevel=2)
+      path.unlink(missing_ok=True)
   value = compute()
   path.parent.mkdir(parents=True, exist_ok=True)
-  atomic_write(path, lambda f: np.save(f, value))
+  files.atomic_write(path, lambda f: np.savez(f, value=value,
+                                              sha256=np.array(_array_digest(value))))
   return value
+
+
+def _array_digest(value: np.ndarray) -> str:
+  h = hashlib.sha256(np.ascontiguousarray(value).tobytes())
+  h.update(f"{value.dtype.str}{value.shape}".encode())
+  return h.hexdigest()

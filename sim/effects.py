@@ -16,6 +16,8 @@ import zlib
 
 import numpy as np
 
+from models import errors
+
 
 class Kind(enum.Enum):
   MODEL = "model"  # changes the MuJoCo model
@@ -35,8 +37,8 @@ def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
   """Validates effect names; returns them sorted and de-duplicated."""
   unknown = [n for n in names if n not in known]
   if unknown:
-    raise ValueError(f"effects={tuple(names)!r} is out of range: unknown effect {unknown[0]!r}; "
-                     f"allowed any of {', '.join(sorted(known))}")
+    raise errors.SettingError(f"effects={tuple(names)!r} is out of range: unknown effect "
+                              f"{unknown[0]!r}; allowed any of {', '.join(sorted(known))}")
   return tuple(sorted(set(names)))
 
 

@@ -7,13 +7,17 @@ recordings are cached under a hash of everything that determines their bytes.
 from __future__ import annotations
 
 import dataclasses
-import json
+import hashlib
+import io
 import os
 import pathlib
+import warnings
+import zipfile
 from typing import Any, Callable, Optional
 
 import numpy as np
 
+from models import errors, files
 from sim import cache
 
 _REQUIRED = ("time", "counts", "wrench", "episode")
@@ -75,11 +79,11 @@ class Recording:
   def paths(self, *names: str) -> "Recording":
     """The samples of the named paths."""
     if self.path is None:
-      raise ValueError("this recording has no paths (it is not a footpad recording)")
+      raise errors.DataError("this recording has no paths (it is not a footpad recording)")
     known = self.meta["paths"]
     for n in names:
       if n not in known:
-        raise ValueError(f"path {n!r} is not in this recording: it has {', '.join(known)}")
+        raise errors.DataError(f"path {n!r} is not in this recording: it has {', '.join(known)}")
     idx = [known.index(n) for n in names]
     return self.select(np.isin(self.path, idx))
 
@@ -89,26 +93,77 @@ class Recording:
     return rec.select(rec.phase == 1)
 
   def save(self, stem: str | os.PathLike) -> pathlib.Path:
-    """Writes stem.npz and stem.json atomically; returns the .npz path."""
+    """Writes stem.npz (the arrays) and stem.json (the metadata with the format tag and a
+    SHA-256 of both), each atomically, the JSON last; returns the .npz path."""
     stem = pathlib.Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
-    cache.atomic_write(stem.with_suffix(".json"),
-                       lambda f: f.write(json.dumps(self.meta, indent=1, sort_keys=True).encode()))
-    cache.atomic_write(stem.with_suffix(".npz"), lambda f: np.savez(f, **self._arrays()))
-    return stem.with_suffix(".npz")
+    npz = stem.with_suffix(".npz")
+    files.atomic_write(npz, lambda f: np.savez(f, **self._arrays()))
+    meta = files.from_json(files.json_text(self.meta))
+    head = {"format": FORMAT, "version": VERSION, "meta": meta,
+            "sha256": _digest(npz.read_bytes(), meta)}
+    files.write_text(stem.with_suffix(".json"), files.json_text(head, indent=1, sort_keys=True))
+    return npz
 
   @classmethod
   def load(cls, stem: str | os.PathLike) -> "Recording":
+    """Reads a recording `save` wrote, checked: format tag and version, the checksum of the
+    arrays and metadata, the arrays' shapes and finiteness.
+
+    Raises:
+      errors.DataError naming the file and what is wrong with it.
+    """
     stem = pathlib.Path(stem)
-    with np.load(stem.with_suffix(".npz")) as z:
-      arrays = {k: z[k] for k in _REQUIRED + _OPTIONAL if k in z.files}
-    meta = json.loads(stem.with_suffix(".json").read_text())
+    npz, head_path = stem.with_suffix(".npz"), stem.with_suffix(".json")
+    try:
+      head = files.from_json(head_path.read_text())
+      data = npz.read_bytes()
+    except (OSError, ValueError) as err:
+      raise errors.DataError(f"recording {stem}: cannot be read ({err})") from None
+    meta = head.get("meta") if isinstance(head, dict) else None
+    files.check_header(head, stem, "recording", FORMAT, VERSION, _digest(data, meta))
+    try:
+      with np.load(io.BytesIO(data)) as z:
+        arrays = {k: z[k] for k in _REQUIRED + _OPTIONAL if k in z.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+      raise errors.DataError(f"recording {npz}: cannot be read ({err})") from None
+    _check_arrays(npz, arrays)
     return cls(meta=meta, **arrays)
 
   @classmethod
   def concatenate(cls, parts: list["Recording"], meta: dict[str, Any]) -> "Recording":
     arrays = {k: np.concatenate([getattr(p, k) for p in parts]) for k in parts[0]._arrays()}
     return cls(meta=meta, **arrays)
+
+
+FORMAT = "testbench-recording"
+VERSION = 2  # 1: bare metadata JSON, no checksum
+
+
+def _digest(npz: bytes, meta: Any) -> str:
+  h = hashlib.sha256(npz)
+  h.update(files.json_text(meta, sort_keys=True).encode())
+  return h.hexdigest()
+
+
+# arrays that may hold NaN: a missed facet's height under `ray_miss`
+_MAY_BE_NAN = ("height",)
+
+
+def _check_arrays(path: pathlib.Path, arrays: dict[str, np.ndarray]) -> None:
+  missing = [k for k in _REQUIRED if k not in arrays]
+  if missing:
+    raise errors.DataError(f"recording {path}: missing arrays {', '.join(missing)}")
+  n = len(arrays["time"])
+  for k, a in arrays.items():
+    if a.ndim == 0 or len(a) != n:
+      raise errors.DataError(f"recording {path}: {k} has shape {a.shape}; the recording has "
+                             f"{n} samples")
+    if k not in _MAY_BE_NAN and np.issubdtype(a.dtype, np.floating) and not np.isfinite(a).all():
+      raise errors.DataError(f"recording {path}: {k} holds NaN or inf")
+  if arrays["counts"].ndim != 2 or arrays["wrench"].shape != (n, 6):
+    raise errors.DataError(f"recording {path}: counts {arrays['counts'].shape} and wrench "
+                           f"{arrays['wrench'].shape} must be (N, D) and (N, 6)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,7 +199,12 @@ def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recordi
   """
   stem = cache.cache_dir() / "recordings" / f"{rig}-{cache.content_key(key)}"
   if use_cache and stem.with_suffix(".npz").exists() and stem.with_suffix(".json").exists():
-    return Recording.load(stem), None
+    try:
+      return Recording.load(stem), None
+    except errors.DataError as err:  # damaged: say so, drop it, simulate it again
+      warnings.warn(f"{err}: deleted from the cache, simulating it again", stacklevel=2)
+      for suffix in (".npz", ".json"):
+        stem.with_suffix(suffix).unlink(missing_ok=True)
   rec, timing = simulate()
   if use_cache:
     rec.save(stem)

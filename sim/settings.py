@@ -16,7 +16,7 @@ import enum
 import typing
 from typing import Any, Mapping
 
-from models import fields
+from models import errors, fields
 
 _TRUE = ("true", "1", "yes", "on")
 _FALSE = ("false", "0", "no", "off")
@@ -56,8 +56,8 @@ def apply(obj: Any, overrides: Mapping[str, str],
   for key, text in overrides.items():
     for name, why in fixed.items():
       if key == name or key.startswith(name + "."):
-        raise ValueError(f"{key} is set by this benchmark ({why}); it cannot be changed "
-                         f"with --set")
+        raise errors.SettingError(f"{key} is set by this benchmark ({why}); it cannot be changed "
+                                  f"with --set")
     obj = _override(obj, key, key, text)
   fields.check(obj)
   return obj
@@ -87,21 +87,22 @@ def _override(obj: Any, key: str, path: str, text: str) -> Any:
   by_name = {f.name: f for f in dataclasses.fields(obj)}
   if head not in by_name:
     known = ", ".join(k.name for k in keys(obj))
-    raise ValueError(f"unknown setting {key!r}: allowed {known}")
+    raise errors.SettingError(f"unknown setting {key!r}: allowed {known}")
   current = getattr(obj, head)
   if rest:
     if not dataclasses.is_dataclass(current):
-      raise ValueError(f"unknown setting {key!r}: {head} has no sub-settings")
+      raise errors.SettingError(f"unknown setting {key!r}: {head} has no sub-settings")
     return dataclasses.replace(obj, **{head: _override(current, key, rest, text)})
   if dataclasses.is_dataclass(current):
-    raise ValueError(f"setting {key!r} needs a field, e.g. {key}.<name> (see NAME --help)")
+    raise errors.SettingError(f"setting {key!r} needs a field, e.g. {key}.<name> (see NAME --help)")
   f = by_name[head]
   tp = fields.types_of(type(obj))[head]
   allowed = fields.allowed(tp, f.metadata)
   try:
     value = parse(text, tp)
   except ValueError as err:
-    raise ValueError(f"{key}={text!r} could not be read ({err}): allowed {allowed}") from None
+    raise errors.SettingError(
+        f"{key}={text!r} could not be read ({err}): allowed {allowed}") from None
   fields.check_value(key, value, tp, f.metadata)
   return dataclasses.replace(obj, **{head: value})
 

@@ -22,8 +22,9 @@ import mujoco.rollout
 import numpy as np
 
 from models import fields, footpad as model_lib
+from models.errors import SimulationError
 from models.fields import setting
-from sim import recording
+from sim import physics, recording
 from sim.effects import check_effects
 from sim.footpad import layer, sensor_chain, trajectories
 from sim.footpad.effects import EFFECTS, EffectName
@@ -92,10 +93,6 @@ class FootpadScene:
 
 # ---------------------------------------------------------------------------------------------
 
-class SimulationError(RuntimeError):
-  """MuJoCo reported a warning (instability, contact overflow) or produced non-finite data."""
-
-
 def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   """The scene's MuJoCo model, with the model effects it lists."""
   effects = check_effects(scene.effects, EFFECTS)
@@ -130,13 +127,16 @@ def episodes(scene: FootpadScene, kernel: np.ndarray) -> list[trajectories.Episo
   return out
 
 
-_WARNINGS = (mujoco.mjtWarning.mjWARN_CONTACTFULL, mujoco.mjtWarning.mjWARN_CNSTRFULL,
-             mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-             mujoco.mjtWarning.mjWARN_BADQACC)
+# the CNC must hold each commanded indentation to this share of it (or REACH_FLOOR, m): a
+# servo that yields under a stiff pad would record the command, not where the pad was
+REACH_SHARE = 0.05
+REACH_FLOOR = 25e-6
 
 
 def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Episode):
-  """Rolls one episode out from rest; returns (qpos (T, nq), sensordata (T, ns), seconds)."""
+  """Rolls one episode out from rest; returns (qpos (T, nq), sensordata (T, ns), seconds).
+
+  Raises SimulationError if the physics diverged or the CNC did not reach its commands."""
   t0 = time.perf_counter()
   mujoco.mj_resetData(model, data)
   data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
@@ -146,14 +146,22 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
   state0 = np.empty(mujoco.mj_stateSize(model, spec))
   mujoco.mj_getState(model, data, state0, spec)
   state, sens = mujoco.rollout.rollout(model, data, state0, ep.target[None])
-  for w in _WARNINGS:
-    if data.warning[w].number:
-      raise SimulationError(f"MuJoCo warning {w.name} in {ep.path} at z={ep.z_level * 1e3:.2f} "
-                            f"mm: the step diverged or overflowed; lower the indentation or "
-                            f"feed, or raise params.timestep resolution")
+  where = f"footpad {ep.path} at z={ep.z_level * 1e3:.2f} mm"
   qpos = state[0, :, 1:1 + model.nq]
-  if not (np.isfinite(qpos).all() and np.isfinite(sens).all()):
-    raise SimulationError(f"non-finite state in {ep.path} at z={ep.z_level * 1e3:.2f} mm")
+  physics.check(data, where, "lower the indentation (z_levels) or feed, or params.timestep",
+                times=state[0, :, 0], values=(qpos, sens))
+  cnc = qpos[:, model_lib.cnc_qpos_index(model)]
+  held = ep.phase == 1
+  if held.any():
+    miss = np.abs(cnc[held] - ep.target[held]).max(axis=1)
+    k = int(np.argmax(miss))
+    if miss[k] > max(REACH_SHARE * abs(ep.z_level), REACH_FLOOR):
+      t = np.flatnonzero(held)[k] * model.opt.timestep
+      raise SimulationError(
+          f"{where}: the CNC missed its command by {miss[k] * 1e3:.3f} mm at t={t:.3f} s "
+          f"(its servo yields to the pad): raise params.cnc_kp (now "
+          f"{model.actuator_gainprm[0, 0]:g} N/m), or lower the indentation or the rubber's "
+          f"modulus")
   return qpos, sens[0], time.perf_counter() - t0
 
 
@@ -235,7 +243,7 @@ def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
   # in shear too.
-  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
+  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
           "physics": "3"}
 
 

@@ -12,6 +12,8 @@ from typing import Literal
 
 import numpy as np
 
+from models import errors
+
 STROKE = 0.003  # m, the paper's 3 mm strokes
 APPROACH_HEIGHT = 1e-4  # m above first touch where an episode starts and ends
 
@@ -65,7 +67,7 @@ def _route(name: str, repeats: int) -> list[np.ndarray]:
     for c in ((0.0015, 0), (-0.0015, 0), (0, 0.0015), (0, -0.0015)):
       pts += _circle(c, (0, 0), 1)[1:]
   else:
-    raise ValueError(f"unknown path {name!r}: allowed {', '.join(PATHS)}")
+    raise errors.SettingError(f"unknown path {name!r}: allowed {', '.join(PATHS)}")
   return pts
 
 

@@ -53,7 +53,7 @@ def simulate(board: shell.ShellScene, seed: int) -> DropRun:
   mass.add_freejoint()
   mass.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.012, 0.003, 0], mass=PAYLOAD,
                 rgba=[0.7, 0.6, 0.2, 1])
-  model = spec.compile()
+  model = shell.compile_checked(spec, "shell drop", board.params)
   data = mujoco.MjData(model)
   free = model.joint("chassis_free").qposadr[0]
   data.qpos[free:free + 3] = [0, 0, chassis_z]
@@ -66,7 +66,7 @@ def simulate(board: shell.ShellScene, seed: int) -> DropRun:
     if i == release:
       model.body_gravcomp[model.body("mass").id] = 0.0
 
-  pose, _ = shell.run_frames(model, data, int(round(END / dt)), 1, let_go)
+  pose, _ = shell.run_frames("shell drop", model, data, int(round(END / dt)), 1, let_go)
   _, counts = shell.sense(board, pose[spf - 1::spf], seed)
   moving = model.body("chassis").subtreemass[0] - model.body("shell").subtreemass[0] + PAYLOAD
   return DropRun(pose[:, 2], counts, float(moving), dt, spf * dt)

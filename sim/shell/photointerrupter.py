@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from models import fields
+from models import errors, fields
 from models.fields import setting
 from sim.effects import check_effects, rng_for
 from sim.shell.effects import EFFECTS
@@ -94,11 +94,11 @@ def fit_inverse_r(height: np.ndarray, counts: np.ndarray) -> tuple[float, float,
   r = np.asarray(height, dtype=np.float64)
   s = np.asarray(counts, dtype=np.float64)
   if r.shape != s.shape or r.ndim != 1:
-    raise ValueError(f"height and counts must be 1-D of one length, got {r.shape}, {s.shape}")
+    raise errors.DataError(f"height and counts must be 1-D of one length, got {r.shape}, {s.shape}")
   if len(r) < 3:
-    raise ValueError(f"{len(r)} samples cannot fit a and b with an error estimate: need >= 3")
+    raise errors.DataError(f"{len(r)} samples cannot fit a and b with an error estimate: need >= 3")
   if not (np.isfinite(r).all() and np.isfinite(s).all()) or np.any(r <= 0):
-    raise ValueError("height must be finite and > 0 and counts finite")
+    raise errors.DataError("height must be finite and > 0 and counts finite")
   v = np.column_stack([1.0 / r, np.ones_like(r)])
   (a, b), *_ = np.linalg.lstsq(v, s, rcond=None)
   return float(a), float(b), float(np.max(np.abs(range_from_counts(s, a, b) - r)))

@@ -26,7 +26,7 @@ import numpy as np
 
 from models import fields, shell as model_lib
 from models.fields import setting
-from sim import recording
+from sim import physics, recording
 from sim.shell import geometry, photointerrupter
 from sim.shell.effects import EffectName
 
@@ -225,7 +225,7 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
   scene.validate()
   _warn_rank(scene)
   t_build = time.perf_counter()
-  model = scene.spec().compile()
+  model = compile_checked(scene.spec(), "shell calibration", scene.params)
   per_session = np.diff(np.linspace(0, scene.frames, scene.sessions + 1).astype(int))
   seqs = np.random.SeedSequence(scene.seed).spawn(scene.sessions)
   threads = threads or min(os.cpu_count() or 1, scene.sessions)
@@ -252,6 +252,8 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
       ctrl = xfrc[start:start + chunk_frames * spf]
       st, sd = mujoco.rollout.rollout(model, data, state, ctrl[None],
                                       control_spec=mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+      physics.check(data, f"shell calibration, session {i}", HINT, times=st[0, :, 0],
+                    values=(st, sd))
       state = st[0, -1]
       # the frame is the state after each frame's last step
       poses.append(st[0, spf - 1::spf, 1:1 + model.nq][:, q_adr])
@@ -261,8 +263,6 @@ def simulate(scene: ShellScene, progress: Optional[Progress] = None,
       done[0] += 1
       if progress:
         progress(done[0], total_chunks)
-    if not np.isfinite(state).all():
-      raise RuntimeError(f"session {i}: the shell's state became non-finite")
     return (np.concatenate(poses), np.concatenate(ft), loads[spf - 1::spf],
             time.perf_counter() - t_session)
 
@@ -359,7 +359,7 @@ def versions() -> dict[str, str]:
   # recordings are not reused.
   # 2 = heights through the matrix form of the closed form (equal to 1e-18 m)
   # 3 = window_scale by regula falsi (hand loads within 1e-9 of the bisection's)
-  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "1",
+  return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
           "physics": "3"}
 
 
@@ -378,26 +378,44 @@ def generate(scene: ShellScene, progress: Optional[Progress] = None, use_cache: 
   return rec, timing
 
 
-def run_frames(model: mujoco.MjModel, data: mujoco.MjData, steps: int, every: int,
+def run_frames(scene: str, model: mujoco.MjModel, data: mujoco.MjData, steps: int, every: int,
                before_step: Optional[Callable[[int], None]] = None,
                read: Optional[Callable[[], Any]] = None) -> tuple[np.ndarray, list]:
   """The step-and-read loop of the shell's free-running scenes (drop, turn, walk).
 
   Steps the model `steps` times from its current state; before step i, `before_step(i)` sets
   whatever the scene drives (controls, gravity, a released mass). After every `every`-th step
-  it records the mount joints and, if given, `read()` (contacts, the base's pose).
+  it records the mount joints and, if given, `read()` (contacts, the base's pose), and checks
+  that the physics held (`sim.physics.check`; `scene` names the run in the error).
 
   Returns:
     (steps // every, 6) mount joints (m, rad) and the list of `read()` values.
   """
   adr = model_lib.mount_qpos_index(model)
   poses, extra = [], []
+  t0, dt = float(data.time), model.opt.timestep
   for i in range(steps):
     if before_step is not None:
       before_step(i)
     mujoco.mj_step(model, data)
     if i % every == every - 1:
       poses.append(data.qpos[adr].copy())
+      physics.check(data, scene, HINT, (t0 + (i + 1 - every) * dt, t0 + (i + 1) * dt),
+                    poses[-1:])
       if read is not None:
         extra.append(read())
   return np.array(poses).reshape(-1, 6), extra
+
+
+HINT = "lower params.spring_rate or the loads, or params.timestep"
+
+
+def compile_checked(spec: mujoco.MjSpec, scene: str, params: model_lib.ShellParams
+                    ) -> mujoco.MjModel:
+  """The compiled rig, refused if its spring mount is too stiff for its step
+  (`sim.physics.check_explicit_springs`)."""
+  model = spec.compile()
+  dofs = model.jnt_dofadr[[model.joint(f"mount_{n}").id for n in model_lib.MOUNT_JOINTS]]
+  physics.check_explicit_springs(model, dofs, scene,
+                                 f"params.spring_rate={params.spring_rate:g} N/m")
+  return model

@@ -33,16 +33,16 @@ def simulate(board: shell.ShellScene, seed: int) -> tuple[np.ndarray, np.ndarray
   """Frames at 100 Hz: (counts (F, 8), gravity in the chassis frame (F, 3)), on the board and
   with the effects of `board` (the calibration's)."""
   loaded = dataclasses.replace(board, params=dataclasses.replace(board.params, payload=PAYLOAD))
-  model = loaded.spec().compile()
+  model = shell.compile_checked(loaded.spec(), "shell turn", loaded.params)
   data = mujoco.MjData(model)
   dt = model.opt.timestep
   grav = gravity_sequence(int(round(TURN_SECONDS / dt)))
   spf = shell.frame_steps(dt)
-  shell.run_frames(model, data, 1000, 1000)  # settle legs down with the mass on
+  shell.run_frames("shell turn", model, data, 1000, 1000)  # settle legs down, the mass on
 
   def set_gravity(i: int) -> None:
     model.opt.gravity[:] = grav[i]
 
-  pose, _ = shell.run_frames(model, data, len(grav), spf, set_gravity)
+  pose, _ = shell.run_frames("shell turn", model, data, len(grav), spf, set_gravity)
   _, counts = shell.sense(board, pose, seed)
   return counts, grav[spf - 1::spf]

@@ -184,7 +184,7 @@ def _model(walk: Walk) -> tuple[mujoco.MjModel, np.ndarray]:
   g = -spec.option.gravity[2]
   spec.geom("chassis").mass = (walk.weight / g - 6 * walk.leg_mass - params.shell_mass
                                - params.reflector_mass)
-  return spec.compile(), np.array(tripods)
+  return shell.compile_checked(spec, "shell walk", params), np.array(tripods)
 
 
 def simulate(walk: Walk) -> WalkRun:
@@ -234,7 +234,8 @@ def simulate(walk: Walk) -> WalkRun:
     yaw = math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2))
     return total, foot, touch, [*data.qpos[free:free + 3], yaw], angles[0]
 
-  pose, frames = shell.run_frames(model, data, int(round(walk.duration / dt)), spf, drive, read)
+  pose, frames = shell.run_frames("shell walk", model, data, int(round(walk.duration / dt)), spf,
+                                  drive, read)
   contact, feet, touching, base, cranks = (np.array(x) for x in zip(*frames))
   _, counts = shell.sense(walk.board, pose, walk.seed)
   return WalkRun(time=(np.arange(len(pose)) + 1) * spf * dt, counts=counts, contact=contact,

@@ -1,0 +1,113 @@
+"""Files every layer writes: atomically, and JSON that other tools can read.
+
+`atomic_write` writes beside the target and renames into place, so a reader (or a run that
+was killed mid-write) never leaves a half-written file under the real name; `json_text`
+writes strict JSON (no NaN or Infinity tokens) and `from_json` reads it back. This module
+imports only `models.errors`, so `calibrate` and `sim` share it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import tempfile
+from typing import Any, Callable
+
+import numpy as np
+
+from models import errors
+
+TMP_SUFFIX = ".tmp"
+
+
+def atomic_write(path: pathlib.Path, write: Callable) -> None:
+  """Calls write(file) on a temporary file beside `path`, then renames it into place, so a
+  reader never sees a half-written file; on any error the temporary file is removed (a
+  killed process leaves one behind: `sim.cache.clean_orphans` removes it)."""
+  path = pathlib.Path(path)
+  # the writer's pid in the name: a cleaner can tell a dead writer's file from a live one's
+  with tempfile.NamedTemporaryFile(dir=path.parent, prefix=f"{path.name}.{os.getpid()}.",
+                                   suffix=TMP_SUFFIX, delete=False) as f:
+    try:
+      write(f)
+    except BaseException:
+      f.close()
+      os.unlink(f.name)
+      raise
+  os.replace(f.name, path)
+
+
+def writer_pid(tmp: pathlib.Path) -> int | None:
+  """The process id in the name of a temporary file `atomic_write` made (None if not one)."""
+  parts = pathlib.Path(tmp).name.removesuffix(TMP_SUFFIX).split(".")
+  try:
+    return int(parts[-2])
+  except (IndexError, ValueError):
+    return None
+
+
+def process_alive(pid: int) -> bool:
+  """Whether process `pid` is running (on this machine)."""
+  try:
+    os.kill(pid, 0)
+  except ProcessLookupError:
+    return False
+  except PermissionError:
+    return True  # someone else's live process
+  return True
+
+
+def write_text(path: pathlib.Path, text: str) -> None:
+  """`atomic_write` of a text file (UTF-8)."""
+  atomic_write(path, lambda f: f.write(text.encode()))
+
+
+_NON_FINITE = {"Infinity": float("inf"), "-Infinity": float("-inf"), "NaN": float("nan")}
+
+
+def _strict(value):
+  if isinstance(value, float) and not np.isfinite(value):
+    return "NaN" if np.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+  if isinstance(value, dict):
+    return {k: _strict(v) for k, v in value.items()}
+  if isinstance(value, (list, tuple)):
+    return [_strict(v) for v in value]
+  if isinstance(value, np.generic):
+    return _strict(value.item())
+  if isinstance(value, np.ndarray):
+    return _strict(value.tolist())
+  return value
+
+
+def json_text(value: Any, **kwargs) -> str:
+  """Strict JSON (RFC 8259, which other tools read): non-finite floats become the strings
+  "Infinity", "-Infinity" and "NaN" (`from_json` turns them back), numpy values plain."""
+  return json.dumps(_strict(value), allow_nan=False, **kwargs)
+
+
+def from_json(text: str) -> Any:
+  """`json.loads` that turns the strings `json_text` wrote for non-finite floats back."""
+  def back(v):
+    if isinstance(v, str):
+      return _NON_FINITE.get(v, v)
+    if isinstance(v, dict):
+      return {k: back(x) for k, x in v.items()}
+    if isinstance(v, list):
+      return [back(x) for x in v]
+    return v
+  return back(json.loads(text))
+
+
+def check_header(head: Any, path: pathlib.Path, kind: str, tag: str, version: int,
+                 digest: str) -> None:
+  """Raise DataError naming `path` unless the header `head` a loader read carries the format
+  `tag`, its `version` and the checksum `digest` of what it describes."""
+  if not isinstance(head, dict) or head.get("format") != tag:
+    raise errors.DataError(f"{kind} {path}: not a testbench {kind} (no format tag {tag!r})")
+  if head.get("version") != version:
+    raise errors.DataError(f"{kind} {path}: format version {head.get('version')!r}; this "
+                           f"testbench reads version {version}")
+  if head.get("sha256") != digest:
+    raise errors.DataError(f"{kind} {path}: its contents do not match the checksum written "
+                           f"with them (damaged or edited)")
