@@ -20,6 +20,7 @@ import numpy as np
 
 from benchmarks import shell
 from benchmarks.registry import register
+from models import files
 
 PAPER = {"walking_amplitude": 0.15, "corner_fx": -0.2, "corner_fy": -0.2, "turn": "right",
          "end_wall_spike": -0.5, "pushing_range": [-0.5, -0.2]}
@@ -91,8 +92,9 @@ def run(ctx) -> dict:
       "feet_friction_limit": float(walk.friction * walk.weight),
   }
   ctx.out.mkdir(parents=True, exist_ok=True)
-  np.savez(ctx.out / "course.npz", time=r.time, shell=f, contact=r.contact, spring=spring,
-           pose=r.pose, crank=r.crank, touching=r.touching)
+  files.atomic_write(ctx.out / "course.npz", lambda out: np.savez(
+      out, time=r.time, shell=f, contact=r.contact, spring=spring, pose=r.pose, crank=r.crank,
+      touching=r.touching))
   a, s = out["walking_amplitude"], out["walking_spring_amplitude"]
   ctx.print(f"[I-II] walking at {out['walking_speed']:.3f} m/s: Fx, Fy, Fz +-{a[0]:.3f}, "
             f"{a[1]:.3f}, {a[2]:.3f} N (springs +-{s[0]:.3f}, {s[1]:.3f}, {s[2]:.3f}); "

@@ -33,6 +33,7 @@ import numpy as np
 
 from benchmarks import shell
 from benchmarks.registry import register
+from models import files
 
 FIXED = {"board.frames": "the static path runs the paper's frame counts (a tenth with --quick)",
          "board.seed": "every design draws its own seed from --seed"}
@@ -238,8 +239,9 @@ def run(ctx) -> dict:
   res = np.array([r["resolution"] if r else [np.nan] * 6 for r in results[:-1]]).reshape(
       shape + (6,))
   rank = np.array([r["rank"] if r else -1 for r in results[:-1]]).reshape(shape)
-  np.savez(ctx.out / "sweep.npz", **{f"axis_{n}": np.array(v) for n, v in axes.items()},
-           **grid, resolution=res, rank=rank)
+  files.atomic_write(ctx.out / "sweep.npz", lambda f: np.savez(
+      f, **{f"axis_{n}": np.array(v) for n, v in axes.items()}, **grid, resolution=res,
+      rank=rank))
   frames = 200_000
   poses = np.random.default_rng(ctx.seed).uniform(-1e-3, 1e-3, (frames, 6))
   times = []
