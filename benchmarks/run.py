@@ -94,7 +94,22 @@ def benchmark_help(bench: registry.Benchmark, quick: bool, seed: int) -> str:
   return "\n".join(lines)
 
 
+def _warning_line(message, category, filename, lineno, line=None) -> str:
+  """Warnings as one line each (not the source line that raised them): the command's output
+  is read by people, not debuggers."""
+  return f"warning: {message}\n"
+
+
 def main(argv: Optional[list[str]] = None) -> int:
+  import warnings
+  before, warnings.formatwarning = warnings.formatwarning, _warning_line
+  try:
+    return _main(argv)
+  finally:
+    warnings.formatwarning = before
+
+
+def _main(argv: Optional[list[str]]) -> int:
   benchmarks = registry.all_benchmarks()
   parser = _parser(benchmarks)
   args = parser.parse_args(argv)
