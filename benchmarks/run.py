@@ -105,8 +105,23 @@ def main(argv: Optional[list[str]] = None) -> int:
   before, warnings.formatwarning = warnings.formatwarning, _warning_line
   try:
     return _main(argv)
+  except Exception:  # a bug before the results folder was known (a run's own are in _run)
+    from sim import cache
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return _internal_error(cache.cache_dir() / "tracebacks" / f"{stamp}.txt")
   finally:
     warnings.formatwarning = before
+
+
+def _internal_error(path: pathlib.Path) -> int:
+  """Saves the traceback being handled to `path` and says so in two lines; exit code 3."""
+  path.parent.mkdir(parents=True, exist_ok=True)
+  files.write_text(path, traceback.format_exc())
+  kind, value = sys.exc_info()[:2]
+  print(f"internal error (a bug in the testbench, not in your settings): {kind.__name__}: "
+        f"{value}\n  the traceback is in {path}; please report it with that file",
+        file=sys.stderr)
+  return 3
 
 
 def _main(argv: Optional[list[str]]) -> int:
@@ -172,13 +187,7 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
           "command to go on", file=sys.stderr)
     return 130
   except Exception:  # not the user's mistake: a short message and the saved traceback
-    path = out / "traceback.txt"
-    files.write_text(path, traceback.format_exc())
-    kind, value = sys.exc_info()[:2]
-    print(f"internal error (a bug in the testbench, not in your settings): {kind.__name__}: "
-          f"{value}\n  the traceback is in {path}; please report it with that file",
-          file=sys.stderr)
-    return 3
+    return _internal_error(out / "traceback.txt")
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
              "settings": overrides, "wall_seconds": time.perf_counter() - t0, **result}
   files.write_text(out / "metrics.json",

@@ -291,6 +291,19 @@ def test_an_internal_error_says_so_and_saves_its_traceback(capsys, tmp_path, mon
   assert not (tmp_path / "out" / outputs.LOCK).exists()
 
 
+def test_an_internal_error_before_the_run_saves_its_traceback_in_the_cache(capsys, tmp_path,
+                                                                           monkeypatch):
+  from sim import settings
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path / "cache"))
+
+  def broken(*args):
+    raise KeyError("oops")
+  monkeypatch.setattr(settings, "apply", broken)
+  err = _one_line_error(capsys, ["shell_table2", "--quick"], tmp_path, code=3)
+  saved = list((tmp_path / "cache" / "tracebacks").glob("*.txt"))
+  assert len(saved) == 1 and str(saved[0]) in err and "KeyError" in saved[0].read_text()
+
+
 def test_a_user_error_from_deep_inside_is_one_line(capsys, tmp_path, monkeypatch):
   def deep(ctx):
     raise errors.DataError("recording x.npz: counts hold NaN or inf")
@@ -356,7 +369,7 @@ def test_loaders_refuse_files_that_are_not_theirs(tmp_path):
 
 # 7. scale-aware numerics ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("unit", [1e-9, 1e-6, 1.0, 1e6])
+@pytest.mark.parametrize("unit", [1e-13, 1e-9, 1.0, 1e6])
 def test_a_live_channel_in_any_units_is_kept(unit):
   rng = np.random.default_rng(1)
   v = rng.uniform(-1, 1, (500, 3)) * unit
