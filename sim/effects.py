@@ -44,4 +44,40 @@ def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
 
 def rng_for(seed: int, effect: str) -> np.random.Generator:
   """The random stream of one effect in one run: SeedSequence(seed) spawned by the name."""
-  return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(zlib.crc32(effect.encode()),)))
+  return np.random.default_rng(np.random.SeedSequence(seed,
+                                                      spawn_key=(zlib.crc32(effect.encode()),)))
+
+
+def wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,
+           steps_per_tau: float) -> np.ndarray:
+  """(T, C) Ornstein-Uhlenbeck processes along axis 0 with stationary rms `rms` and
+  correlation time `steps_per_tau` samples, stationary from the first sample (slow drifts:
+  stray light, temperature)."""
+  phi = np.exp(-1.0 / steps_per_tau)
+  kick = rng.normal(0.0, rms * np.sqrt(1 - phi**2), shape)
+  kick[0] = rng.normal(0.0, rms, shape[1])
+  # out[i] = phi out[i-1] + kick[i], out[0] = kick[0]
+  import scipy.signal  # here: its import takes 0.4 s, which every sweep worker would pay
+  return scipy.signal.lfilter([1.0], [1.0, -phi], kick, axis=0)
+
+
+def play(x: np.ndarray, half_width: float | np.ndarray) -> np.ndarray:
+  """(T, C) the play (backlash) operator along axis 0: the output follows the input only
+  when it is more than `half_width` away, so a loop of the input traces a rate-independent
+  hysteresis loop 2 half_width wide; it starts at x[0].
+
+  y[t] = clip(y[t-1], x[t] - w, x[t] + w) is a composition of clips, and clips compose into
+  clips: clip(clip(y, a1, b1), a2, b2) = clip(y, clip(a1, a2, b2), clip(b1, a2, b2)). So the
+  recursion is a prefix scan of (low, high) pairs, done in log2(T) vectorised passes
+  (Hillis-Steele) instead of T Python steps.
+  """
+  x = np.asarray(x, dtype=np.float64)
+  lo, hi = x - half_width, x + half_width
+  step = 1
+  while step < len(x):
+    # the maps up to t become (maps up to t - step) followed by (maps t - step + 1 .. t)
+    new_lo = np.clip(lo[:-step], lo[step:], hi[step:])
+    new_hi = np.clip(hi[:-step], lo[step:], hi[step:])
+    lo[step:], hi[step:] = new_lo, new_hi
+    step *= 2
+  return np.clip(x[:1], lo, hi)

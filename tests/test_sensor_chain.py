@@ -46,7 +46,8 @@ def test_effect_off_leaves_other_effects_bit_identical(off):
   rest = [e for e in SIGNAL if e != off]
   a = sensor_chain.apply(p, w, rest, seed=3)
   b = sensor_chain.apply(p, w, rest + [off], seed=3)
-  if off in ("sensor_noise", "gain_offset_spread", "adc_quantisation", "adc_saturation"):
+  if off in ("sensor_noise", "gain_offset_spread", "adc_quantisation", "adc_saturation",
+             "hysteresis", "thermal_drift"):
     assert not np.array_equal(a[0], b[0])
     np.testing.assert_array_equal(a[1], b[1])
   else:  # ft_noise
@@ -78,3 +79,49 @@ def test_saturation_and_quantisation_limits():
 def test_unknown_effect_is_refused():
   with pytest.raises(ValueError, match="unknown effect 'glitter'"):
     sensor_chain.apply(np.zeros((1, 6)), np.zeros((1, 6)), ["glitter"], 0)
+
+
+def test_the_play_operator_equals_its_recursion():
+  from sim.effects import play
+  rng = np.random.default_rng(0)
+  x = np.cumsum(rng.normal(size=(3001, 3)), axis=0)
+  w = np.array([0.5, 3.0, 0.0])
+  ref = np.empty_like(x)
+  ref[0] = x[0]
+  for t in range(1, len(x)):
+    ref[t] = np.clip(ref[t - 1], x[t] - w, x[t] + w)
+  np.testing.assert_array_equal(play(x, w), ref)
+  np.testing.assert_array_equal(play(x, 0.0), x)  # no width: the identity
+
+
+@pytest.mark.parametrize("width", [0.0, 0.004, 0.012])
+def test_hysteresis_loop_is_as_wide_as_stated(width):
+  adc = sensor_chain.AdcConfig(hysteresis=width)
+  up = np.linspace(0, 200e3, 2001)
+  p = np.concatenate([up, up[::-1]])[:, None] * np.ones(6)
+  counts, _ = sensor_chain.apply(p, np.zeros((len(p), 6)), ["hysteresis"], 0, adc)
+  loaded, unloaded = counts[:2001, 0], counts[2001:, 0][::-1]
+  # at mid-range both branches have left their start: their gap is the loop width
+  mid = slice(800, 1200)
+  gap = sensor_chain.counts_to_pressure(unloaded[mid], adc) - sensor_chain.counts_to_pressure(
+      loaded[mid], adc)
+  np.testing.assert_allclose(gap, width * sensor_chain.MPX_SPAN, rtol=1e-9, atol=1e-6)
+
+
+def test_thermal_drift_has_its_stated_size_and_time():
+  adc = sensor_chain.AdcConfig(drift_offset=0.01, drift_gain=0.0, drift_time=2.0)
+  n, dt = 200_000, 0.001
+  p = np.zeros((n, 6))
+  counts, _ = sensor_chain.apply(p, np.zeros((n, 6)), ["thermal_drift"], 4, adc, dt)
+  drift = sensor_chain.counts_to_pressure(counts, adc)
+  # 100 correlation times x 6 channels: the rms within 10 %, the lag-tau correlation 1/e
+  assert np.std(drift) == pytest.approx(0.01 * sensor_chain.MPX_SPAN, rel=0.1)
+  lag = int(2.0 / dt)
+  r = np.mean([np.corrcoef(drift[:-lag, c], drift[lag:, c])[0, 1] for c in range(6)])
+  assert r == pytest.approx(np.exp(-1), abs=0.08)
+  gain_only = sensor_chain.AdcConfig(drift_offset=0.0, drift_gain=0.015, drift_time=2.0)
+  p = np.full((n, 6), 100e3)
+  counts, _ = sensor_chain.apply(p, np.zeros((n, 6)), ["thermal_drift"], 4, gain_only, dt)
+  rel = sensor_chain.counts_to_pressure(counts, gain_only) / 100e3 - 1
+  assert np.std(rel) == pytest.approx(0.015, rel=0.1)
+

@@ -32,6 +32,17 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "(measured): the dies, 1 mm above the PCB, feel a couple on the face more than the "
            "same moment delivered by shear. First order in u; a geometrically nonlinear "
            "solution of the layer would pin the split down."),
+    Effect("hysteresis", Kind.SIGNAL,
+           "Rate-independent hysteresis of each die (silicone gel, cast rubber and the "
+           "transducer's own): a play operator on its pressure, loop width "
+           "AdcConfig.hysteresis of the 380 kPa span (default 0.6 %, range 0-1.2 %: the LSANN "
+           "paper's linear Z fit, 0.42 % NRMSE, bounds it). A history effect: one reading "
+           "depends on the path the load took to it, which no static calibration can learn."),
+    Effect("thermal_drift", Kind.SIGNAL,
+           "Slow drift of each die's offset and gain over a session (warm-up, the pad "
+           "warming under load): Ornstein-Uhlenbeck processes with rms AdcConfig.drift_offset "
+           "of span and drift_gain, correlation time drift_time (defaults 0.5 %, 0.5 %, "
+           "300 s: the MPXH6400A's +-1.5 % band over 0-85 C taken as 3 sd; range 0-1.5 %)."),
     Effect("sensor_noise", Kind.SIGNAL,
            "White noise of the pressure sensor and ADC, in counts rms (default 1.5). Assumed: "
            "MPXH6400A output noise plus MCP3208 transition noise (datasheet: +-1 LSB INL) on an "

@@ -218,7 +218,8 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
         progress(done, len(eps))
   t2 = time.perf_counter()
   pressure, sens, force_sum, cnc = (np.concatenate([r[k] for r in results]) for k in range(4))
-  counts, wrench = sensor_chain.apply(pressure, sens, effects, scene.seed, scene.adc)
+  counts, wrench = sensor_chain.apply(pressure, sens, effects, scene.seed, scene.adc,
+                                      scene.params.timestep)
   chain_cpu = sum(r[5] for r in results) + time.perf_counter() - t2
   physics_cpu = sum(r[4] for r in results)
 

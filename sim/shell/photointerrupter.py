@@ -17,7 +17,7 @@ import numpy as np
 
 from models import errors, fields
 from models.fields import setting
-from sim.effects import check_effects, rng_for
+from sim.effects import check_effects, rng_for, wander
 from sim.shell.effects import EFFECTS
 
 # u = r / r_c at the maximum of (1 - exp(-u^2)) / u: 2 u^2 exp(-u^2) = 1 - exp(-u^2)
@@ -111,17 +111,6 @@ def range_from_counts(counts: np.ndarray, a: float, b: float) -> np.ndarray:
     return np.where(s > b, a / (s - b), np.nan)
 
 
-def _wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,
-            steps_per_tau: float) -> np.ndarray:
-  """An Ornstein-Uhlenbeck process along axis 0, stationary from the first sample."""
-  phi = np.exp(-1.0 / steps_per_tau)
-  kick = rng.normal(0.0, rms * np.sqrt(1 - phi**2), shape)
-  kick[0] = rng.normal(0.0, rms, shape[1])
-  # out[i] = phi out[i-1] + kick[i], out[0] = kick[0]
-  import scipy.signal  # here: its import takes 0.4 s, which every sweep worker would pay
-  return scipy.signal.lfilter([1.0], [1.0, -phi], kick, axis=0)
-
-
 def apply(height: np.ndarray, effects, seed: int,
           sensor: Photointerrupter = Photointerrupter(),
           frame_rate: float = 100.0, unit_seed: int | None = None) -> np.ndarray:
@@ -143,8 +132,8 @@ def apply(height: np.ndarray, effects, seed: int,
     rng = rng_for(seed, "stray_ir")
     tau = sensor.stray_ir_time * frame_rate
     n = counts.shape[0]
-    counts = (counts + _wander(rng, (n, 1), sensor.stray_ir, tau)
-              + _wander(rng, counts.shape, sensor.stray_ir, tau))
+    counts = (counts + wander(rng, (n, 1), sensor.stray_ir, tau)
+              + wander(rng, counts.shape, sensor.stray_ir, tau))
   if {"unit_spread", "stray_ir"} & set(effects):
     counts = np.clip(counts, 0.0, float(sensor.full_scale))
   if "sensor_noise" in effects:
