@@ -305,6 +305,13 @@ def element_forces(model: mujoco.MjModel, params: FootpadParams,
   return element_state(model, params, qpos)[0]
 
 
+def contact_friction(model: mujoco.MjModel) -> np.ndarray:
+  """(num_elements,) sliding friction coefficient of each element's tip on the plate: MuJoCo
+  takes the larger of the two geoms' coefficients."""
+  tips = [g for g in range(model.ngeom) if (model.geom(g).name or "").startswith("tip")]
+  return np.maximum(model.geom_friction[tips, 0], model.geom("plate").friction[0])
+
+
 def cnc_qpos_index(model: mujoco.MjModel) -> np.ndarray:
   """(3,) qpos addresses of the CNC joints (x, y, z)."""
   return np.array([model.jnt_qposadr[model.joint(f"cnc_{a}").id] for a in AXES])

@@ -21,8 +21,8 @@ from models import errors, files
 from sim import cache
 
 _REQUIRED = ("time", "counts", "wrench", "episode")
-_OPTIONAL = ("pressure", "element_force", "cnc", "path", "z_level", "phase", "height", "pose",
-             "applied")
+_OPTIONAL = ("pressure", "element_force", "cnc", "path", "z_level", "phase", "slip", "height",
+             "pose", "applied")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +47,8 @@ class Recording:
     path: footpad, (N,) index into meta["paths"].
     z_level: footpad, (N,) nominal indentation, m.
     phase: footpad, (N,) 1 on the path at its indentation, 0 approaching or retreating.
+    slip: footpad, (N,) share of the pad's loaded elements sliding on the plate (at their
+      friction limit); 0 without the `friction` effect.
     height: shell, (N, 8) reflector heights above the sensors, m (NaN: a missed facet).
     pose: shell, (N, 6) mount joints: displacement (m) and hinge angles (rad).
     applied: shell, (N, 6) the hand's wrench about the F/T site, N and N m.
@@ -62,6 +64,7 @@ class Recording:
   path: Optional[np.ndarray] = None
   z_level: Optional[np.ndarray] = None
   phase: Optional[np.ndarray] = None
+  slip: Optional[np.ndarray] = None
   height: Optional[np.ndarray] = None
   pose: Optional[np.ndarray] = None
   applied: Optional[np.ndarray] = None

@@ -137,3 +137,21 @@ def test_p_delta_changes_only_die_stress_and_amplifies_the_shear_moment():
     return np.polyfit(fx, diff, 1)[0]
   assert abs(slope(b)) > 1.1 * abs(slope(a))
   assert np.sign(slope(b)) == np.sign(slope(a))
+
+
+def test_slip_share_counts_elements_at_their_friction_limit():
+  f = np.array([[[0.0, 0.9, 1.0], [0.5, 0.0, 1.0], [0.0, 0.0, 0.0], [0.89, 0.0, 1.0]]])
+  # loaded: 0, 1, 3; at the limit 0.9 * 1.0 (x 0.98): 0 and 3
+  assert footpad.slip_share(f, 0.9)[0] == pytest.approx(2 / 3)
+
+
+def test_shallow_strokes_slide_within_coulomb_and_deep_ones_stick():
+  scene = footpad.FootpadScene(paths=("x_stroke",), z_levels=(0.0005, 0.0015),
+                               effects=("friction",))
+  rec, _ = footpad.simulate(scene)
+  mu = scene.params.friction
+  for z, slides in ((0.0005, True), (0.0015, False)):
+    m = (rec.z_level == z) & (rec.phase == 1)
+    ratio = np.hypot(rec.wrench[m, 0], rec.wrench[m, 1]) / rec.wrench[m, 2]
+    assert ratio.max() <= mu * 1.01  # the plate's shear never beats the pad's friction
+    assert (rec.slip[m].max() > 0.1) == slides

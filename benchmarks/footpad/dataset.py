@@ -41,6 +41,31 @@ def run(ctx) -> dict:
                 f"{timing.sensor_chain_cpu:.2f} s = "
                 f"{timing.sensor_chain_cpu / timing.physics_cpu:.1%} of the physics' "
                 f"{timing.physics_cpu:.1f} thread-s; model + kernel {timing.build:.1f} s")
+    if rec.slip is not None:
+      out["recordings"][name]["slip"] = _slip_table(ctx, rec)
   out["samples"] = sum(r["samples"] for r in out["recordings"].values())
   out["effects"] = list(scenes["train"].effects)
   return out
+
+
+def _slip_table(ctx, rec) -> list[dict]:
+  """Per Z level, on the lateral paths at their indentation: the largest shear/normal ratio
+  of the plate's force, the share of samples where any element slides, and the mean share
+  of the loaded elements sliding (`Recording.slip`)."""
+  lateral = [i for i, p in enumerate(rec.meta["paths"]) if p != "z_press"]
+  on = (rec.phase == 1) & np.isin(rec.path, lateral)
+  rows = []
+  ctx.print(f"  slip by Z level (lateral paths): {'z mm':>6s} {'max Ft/Fz':>10s} "
+            f"{'any slides':>11s} {'elements sliding':>17s}")
+  for z in np.unique(rec.z_level[on]):
+    m = on & (rec.z_level == z)
+    fz = np.maximum(rec.wrench[m, 2], 1e-9)
+    ratio = float(np.max(np.hypot(rec.wrench[m, 0], rec.wrench[m, 1]) / fz))
+    rows.append({"z_mm": float(z * 1e3), "max_shear_over_normal": ratio,
+                 "samples_with_slip": float(np.mean(rec.slip[m] > 0)),
+                 "mean_sliding_share": float(np.mean(rec.slip[m]))})
+    r = rows[-1]
+    ctx.print(f"  {'':31s} {r['z_mm']:6.2f} {ratio:10.2f} {r['samples_with_slip']:11.1%} "
+              f"{r['mean_sliding_share']:17.1%}")
+  return rows
+

@@ -165,6 +165,22 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
   return qpos, sens[0], time.perf_counter() - t0
 
 
+# an element whose shear is within this share of its friction limit is taken as sliding:
+# MuJoCo's soft contact reaches the cone's edge only asymptotically
+SLIDING = 0.98
+LOADED = 0.05  # N: elements pressed less than this are out of contact
+
+
+def slip_share(forces: np.ndarray, mu: float) -> np.ndarray:
+  """(T,) share of the pad's loaded elements at their friction limit (|f_t| >= SLIDING mu
+  f_n), from element forces (T, E, 3), N, +z pressing."""
+  fn = forces[..., 2]
+  ft = np.hypot(forces[..., 0], forces[..., 1])
+  loaded = fn > LOADED
+  sliding = loaded & (ft >= SLIDING * mu * fn)
+  return sliding.sum(axis=-1) / np.maximum(loaded.sum(axis=-1), 1)
+
+
 def element_couples(forces: np.ndarray, deflection: np.ndarray) -> np.ndarray:
   """(..., num_elements, 2) couples (N m, along x and y) of the `p_delta` effect: the normal
   force moved sideways by the shear deflection, the shear moved towards the PCB by the
@@ -205,8 +221,11 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     pressure = forces.reshape(len(forces), -1) @ g
     if gc is not None:
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
+    slip = slip_share(forces, model_lib.contact_friction(model)) if "friction" in effects \
+        else np.zeros(len(forces))
     chain = time.perf_counter() - t
-    return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], physics, chain)
+    return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics,
+               chain)
 
   done = 0
   with concurrent.futures.ThreadPoolExecutor(threads) as pool:
@@ -217,16 +236,18 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
       if progress:
         progress(done, len(eps))
   t2 = time.perf_counter()
-  pressure, sens, force_sum, cnc = (np.concatenate([r[k] for r in results]) for k in range(4))
+  pressure, sens, force_sum, cnc, slip = (np.concatenate([r[k] for r in results])
+                                          for k in range(5))
   counts, wrench = sensor_chain.apply(pressure, sens, effects, scene.seed, scene.adc,
                                       scene.params.timestep)
-  chain_cpu = sum(r[5] for r in results) + time.perf_counter() - t2
-  physics_cpu = sum(r[4] for r in results)
+  chain_cpu = sum(r[6] for r in results) + time.perf_counter() - t2
+  physics_cpu = sum(r[5] for r in results)
 
   path_names = list(dict.fromkeys(ep.path for ep in eps))
   rec = recording.Recording(
       time=np.concatenate([np.arange(len(ep.target)) * scene.params.timestep for ep in eps]),
       counts=counts, pressure=pressure, wrench=wrench, element_force=force_sum, cnc=cnc,
+      slip=slip,
       path=np.concatenate([np.full(len(ep.target), path_names.index(ep.path), np.int16)
                            for ep in eps]),
       z_level=np.concatenate([np.full(len(ep.target), ep.z_level) for ep in eps]),
@@ -243,9 +264,9 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
-  # in shear too.
+  # in shear too; 4 = the slip share of each sample.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "3"}
+          "physics": "4"}
 
 
 def cache_key(scene: FootpadScene) -> dict:
