@@ -65,6 +65,13 @@ class FootpadParams:
       (every axis) that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
     relaxation_time: for the `viscoelastic` effect, the Maxwell arms' time constant, s.
       Assumed 1 s.
+    friction_mu0, friction_shear_strength: for the `pressure_friction` effect, Thirion's law
+      of rubber on a hard surface, tau = mu0 p / (1 + mu0 p / tau_s): the coefficient tau/p
+      is mu0 at low contact pressure and falls as the pressure nears tau_s / mu0
+      (Schallamach 1952; pressure-dependent kinetic friction, Braun & Persson 2016). mu0
+      1.2-2.5 for soft polyurethane on metal (medium confidence on the form, low on the
+      numbers; default the middle, 1.85); tau_s has no direct source: 0.15-0.5 MPa (default
+      0.3 MPa) gives mu 1.0-1.7 at 0.1 MPa.
     stiffness_profile: "bonded_plate" takes each element's spring rates from the finite-element
       block under a rigid plate stuck to its face, moved along x, y and z in turn (its nodal
       reactions split by tributary area, `sim.footpad.layer.plate_stiffness`): stiffer in the middle
@@ -92,6 +99,8 @@ class FootpadParams:
   cnc_mass: float = setting(1.0, "[0.01, 100]", "kg")
   relaxation_fraction: float = setting(0.2, "(0, 1]")
   relaxation_time: float = setting(1.0, "[0.01, 1000]", "s")
+  friction_mu0: float = setting(1.85, "[1.2, 2.5]")
+  friction_shear_strength: float = setting(0.3e6, "[0.15e6, 0.5e6]", "Pa")
   stiffness_profile: Literal["bonded_plate", "uniform"] = "bonded_plate"
 
   @property

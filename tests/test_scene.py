@@ -155,3 +155,28 @@ def test_shallow_strokes_slide_within_coulomb_and_deep_ones_stick():
     ratio = np.hypot(rec.wrench[m, 0], rec.wrench[m, 1]) / rec.wrench[m, 2]
     assert ratio.max() <= mu * 1.01  # the plate's shear never beats the pad's friction
     assert (rec.slip[m].max() > 0.1) == slides
+
+
+def test_thirion_friction_is_coulomb_at_low_pressure_and_capped_at_high():
+  mu0, tau_s = 1.85, 0.3e6
+  assert footpad.thirion_friction(mu0, tau_s, np.array([1.0]))[0] == pytest.approx(mu0, rel=1e-5)
+  p = np.array([1e9, 1e10])
+  np.testing.assert_allclose(footpad.thirion_friction(mu0, tau_s, p) * p, tau_s, rtol=2e-3)
+  # in between, the law itself: tau = mu0 p / (1 + mu0 p / tau_s)
+  assert footpad.thirion_friction(mu0, tau_s, np.array([0.1e6]))[0] == pytest.approx(
+      mu0 / (1 + mu0 * 0.1e6 / tau_s))
+
+
+def test_pressure_friction_sets_each_element_and_bounds_the_shear():
+  params = model_lib.FootpadParams(friction_mu0=1.2, friction_shear_strength=0.15e6)
+  scene = footpad.FootpadScene(paths=("x_stroke",), z_levels=(0.0003,), params=params,
+                               effects=("friction", "pressure_friction"))
+  mu = footpad.episode_friction(scene, 0.0003)
+  assert np.ptp(mu) > 0.01  # by element, not one coefficient
+  rec, _ = footpad.simulate(scene)
+  held = rec.phase == 1
+  ratio = np.hypot(rec.wrench[held, 0], rec.wrench[held, 1]) / rec.wrench[held, 2]
+  assert ratio.max() <= mu.max() * 1.01 and rec.slip[held].max() > 0.1
+  assert ratio.max() > params.friction  # the Coulomb coefficient is not the one in force
+  with pytest.raises(ValueError, match="pressure_friction together with friction"):
+    footpad.simulate(dataclasses.replace(scene, effects=("pressure_friction",)))

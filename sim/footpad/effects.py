@@ -11,6 +11,13 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "Coulomb friction between pad and plate (condim 3, elliptic cone), coefficient "
            "FootpadParams.friction = 0.9: 0.8-1 reproduces the paper's ~220 N shear ranges "
            "(measured here). Off: frictionless contact, no shear."),
+    Effect("pressure_friction", Kind.MODEL,
+           "Rubber's friction falls with contact pressure (Thirion's law, tau = mu0 p / (1 + "
+           "mu0 p / tau_s); Schallamach 1952, Braun & Persson 2016): each element's "
+           "coefficient follows its pressure under the press to the episode's depth, in "
+           "place of the one Coulomb coefficient (FootpadParams.friction_mu0 1.2-2.5, "
+           "friction_shear_strength 0.15-0.5 MPa, both ranges of low confidence). Needs "
+           "`friction`. Static and kinetic friction stay equal (stick-slip is not modelled)."),
     Effect("viscoelastic", Kind.MODEL,
            "Stress relaxation of the polyurethane: a standard linear solid per element and "
            "axis (the element spring in parallel with a Maxwell arm of stiffness "

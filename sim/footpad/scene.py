@@ -10,6 +10,7 @@ on-disk cache.
 from __future__ import annotations
 
 import concurrent.futures
+import copy
 import dataclasses
 import json
 import math
@@ -78,6 +79,9 @@ class FootpadScene:
     yield all(0.0 <= z <= lim for z in self.z_levels), "z_levels", strain, self.z_levels
     yield (self.press_depth is None or self.press_depth <= lim, "press_depth",
            f"(0, {lim:.4g}] m or none", self.press_depth)
+    yield ("pressure_friction" not in self.effects or "friction" in self.effects, "effects",
+           "pressure_friction together with friction (it sets the frictional contact's "
+           "coefficient)", self.effects)
 
   def validate(self) -> None:
     """Raise ValueError naming the first setting outside its allowed range."""
@@ -99,6 +103,25 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   return model_lib.build_spec(scene.params, friction="friction" in effects,
                               viscoelastic="viscoelastic" in effects,
                               stiffness=layer.element_stiffness(scene.params)).compile()
+
+
+def thirion_friction(mu0: float, shear_strength: float, pressure: np.ndarray) -> np.ndarray:
+  """Friction coefficient tau / p of rubber at contact pressure p (Pa) by Thirion's law,
+  tau = mu0 p / (1 + mu0 p / tau_s): mu0 as p -> 0, tau -> tau_s as p -> inf."""
+  return mu0 / (1.0 + mu0 * np.maximum(pressure, 0.0) / shear_strength)
+
+
+def episode_friction(scene: FootpadScene, z: float) -> np.ndarray:
+  """(num_elements,) each element's friction coefficient for an episode at indentation z (m),
+  for the `pressure_friction` effect: Thirion's law at the element's pressure under the flat
+  press to z (its normal rate times its indentation, the crown's sag taken off, over its
+  patch). The coefficient is held over the episode: the stroke's shear moves the pressure
+  under each element by less than the press (measured: `footpad_dataset`'s slip table)."""
+  params = scene.params
+  kz = layer.element_stiffness(params)[:, 2]
+  dx, dy = params.element_size
+  pressure = kz * np.maximum(z - params.crown_sag(), 0.0) / (dx * dy)
+  return thirion_friction(params.friction_mu0, params.friction_shear_strength, pressure)
 
 
 def press_depth(scene: FootpadScene, kernel: np.ndarray) -> float:
@@ -198,7 +221,14 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   kernel = layer.die_kernel(scene.params, scene.kernel)
   eps = episodes(scene, kernel)
   threads = threads or min(os.cpu_count() or 1, len(eps))
-  datas = [mujoco.MjData(model) for _ in range(threads)]
+  per_element = "pressure_friction" in effects
+  # each thread its own model when episodes set their own friction coefficients
+  models = [copy.copy(model) if per_element else model for _ in range(threads)]
+  if per_element:
+    for m in models:  # the tip's coefficient decides (MuJoCo takes the larger of the two)
+      m.geom_friction[m.geom("plate").id, 0] = 0.0
+  tips = [model.geom(f"tip{e}").id for e in range(scene.params.num_elements)]
+  datas = [mujoco.MjData(m) for m in models]
   t1 = time.perf_counter()
 
   results: list = [None] * len(eps)
@@ -212,8 +242,12 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 
   def work(i: int):
     slot = free.pop()
+    m = models[slot]
     try:
-      qpos, sens, physics = _run_episode(model, datas[slot], eps[i])
+      if per_element:
+        m.geom_friction[tips, 0] = episode_friction(scene, eps[i].z_level)
+      qpos, sens, physics = _run_episode(m, datas[slot], eps[i])
+      mu = model_lib.contact_friction(m)
     finally:
       free.append(slot)
     t = time.perf_counter()
@@ -221,8 +255,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     pressure = forces.reshape(len(forces), -1) @ g
     if gc is not None:
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
-    slip = slip_share(forces, model_lib.contact_friction(model)) if "friction" in effects \
-        else np.zeros(len(forces))
+    slip = slip_share(forces, mu) if "friction" in effects else np.zeros(len(forces))
     chain = time.perf_counter() - t
     return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics,
                chain)
@@ -264,7 +297,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
-  # in shear too; 4 = the slip share of each sample.
+  # in shear too; 4 = the slip share of each sample, FootpadParams' friction law.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
           "physics": "4"}
 
