@@ -48,6 +48,9 @@ def run(ctx) -> dict:
   return out
 
 
+IN_CONTACT = 1.0  # N of normal force: below it a shear/normal ratio means nothing
+
+
 def _slip_table(ctx, rec) -> list[dict]:
   """Per Z level, on the lateral paths at their indentation: the largest shear/normal ratio
   of the plate's force, the share of samples where any element slides, and the mean share
@@ -58,9 +61,10 @@ def _slip_table(ctx, rec) -> list[dict]:
   ctx.print(f"  slip by Z level (lateral paths): {'z mm':>6s} {'max Ft/Fz':>10s} "
             f"{'any slides':>11s} {'elements sliding':>17s}")
   for z in np.unique(rec.z_level[on]):
-    m = on & (rec.z_level == z)
-    fz = np.maximum(rec.wrench[m, 2], 1e-9)
-    ratio = float(np.max(np.hypot(rec.wrench[m, 0], rec.wrench[m, 1]) / fz))
+    m = on & (rec.z_level == z) & (rec.wrench[:, 2] > IN_CONTACT)
+    if not m.any():
+      continue  # the pad only touches the plate: no ratio to speak of
+    ratio = float(np.max(np.hypot(rec.wrench[m, 0], rec.wrench[m, 1]) / rec.wrench[m, 2]))
     rows.append({"z_mm": float(z * 1e3), "max_shear_over_normal": ratio,
                  "samples_with_slip": float(np.mean(rec.slip[m] > 0)),
                  "mean_sliding_share": float(np.mean(rec.slip[m]))})
