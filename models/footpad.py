@@ -61,10 +61,14 @@ class FootpadParams:
     timestep: simulation step, s; one step per 1 kHz sample (paper Sec. III-A).
     cnc_kp: CNC servo stiffness, N/m. 2e7 deflects the axis ~11 um at a ~220 N peak.
     cnc_mass: moving mass of each CNC axis (as joint armature), kg.
-    relaxation_fraction: for the `viscoelastic` effect, the share of each element's stiffness
-      (every axis) that relaxes (Maxwell arm stiffness / long-term stiffness). Assumed 0.2.
-    relaxation_time: for the `viscoelastic` effect, the Maxwell arms' time constant, s.
-      Assumed 1 s.
+    prony: for the `viscoelastic` effect, the rubber's two-term Prony series (g1, tau1, g2,
+      tau2): after a step strain its stress is E0 (1 - g1 - g2 + g1 exp(-t/tau1) + g2
+      exp(-t/tau2)), E0 the instantaneous modulus the finite-element rates stand for (Shore A
+      is read within 1 s, ASTM D2240). No Prony data is published for Vytaflex 20; soft cast
+      polyurethanes: a fast term g1 0.05-0.2 at tau1 0.1-2 s, a slow one g2 0.03-0.15 at
+      tau2 10-100 s, relaxed/instantaneous 0.65-0.92 (low confidence; Vytaflex 40 needed
+      9-16 s to recover, Hou, Zhou & Spiers, T-RO 2024). Defaults: the ranges' middles
+      (tau2 geometric), relaxed/instantaneous 0.79.
     friction_mu0, friction_shear_strength: for the `pressure_friction` effect, Thirion's law
       of rubber on a hard surface, tau = mu0 p / (1 + mu0 p / tau_s): the coefficient tau/p
       is mu0 at low contact pressure and falls as the pressure nears tau_s / mu0
@@ -97,8 +101,8 @@ class FootpadParams:
   timestep: float = setting(0.001, "[1e-4, 2e-3]", "s")
   cnc_kp: float = setting(2e7, "[1e4, 1e9]", "N/m")
   cnc_mass: float = setting(1.0, "[0.01, 100]", "kg")
-  relaxation_fraction: float = setting(0.2, "(0, 1]")
-  relaxation_time: float = setting(1.0, "[0.01, 1000]", "s")
+  prony: tuple[float, float, float, float] = setting((0.12, 1.0, 0.09, 30.0),
+                                                     "[0.01, 1000]", length=(4, 4))
   friction_mu0: float = setting(1.85, "[1.2, 2.5]")
   friction_shear_strength: float = setting(0.3e6, "[0.15e6, 0.5e6]", "Pa")
   stiffness_profile: Literal["bonded_plate", "uniform"] = "bonded_plate"
@@ -152,6 +156,9 @@ class FootpadParams:
     yield (self.crown_radius > 4 * half_diag, "crown_radius",
            f"> {4 * half_diag:.3f} m (or inf for a flat pad)", self.crown_radius)
     yield self.die_depth < self.thickness, "die_depth", f"(0, {self.thickness}) m", self.die_depth
+    g1, _, g2, _ = self.prony
+    yield (g1 + g2 < 1, "prony", "(g1, tau1, g2, tau2) with g1 + g2 < 1 (a relaxed modulus "
+           "left)", self.prony)
     yield (all(abs(x) < self.footprint[0] / 2 for x in self.die_x), "die_x",
            f"|x| < {self.footprint[0] / 2} m", self.die_x)
     yield (all(abs(y) < self.footprint[1] / 2 for y in self.die_y), "die_y",
@@ -169,9 +176,11 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   Args:
     params: physical parameters.
     friction: frictional contact (condim 3) when True; frictionless (condim 1) otherwise.
-    viscoelastic: each element's springs become standard linear solids, per axis: the
-      long-term spring (a fixed tendon over the axis's two joints) in parallel with a Maxwell
-      arm (spring on the tip's joint, dashpot on an intermediate body's joint).
+    viscoelastic: each element's springs become two-term Prony solids (`FootpadParams.prony`),
+      per axis: the relaxed spring (a fixed tendon over the axis's two joints) in parallel
+      with two Maxwell arms: one with its spring on the tip's joint and its dashpot on an
+      intermediate body's joint, one with its spring a tendon over both and its dashpot on a
+      body of its own.
     stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
       (`FootpadParams.element_stiffness`); see `sim.footpad.layer.element_stiffness`.
   Returns:
@@ -243,25 +252,38 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
     parent = carriage
     pos = [centres[e, 0], centres[e, 1], sag[e] + r]
     tip_k = k[e]
-    if viscoelastic:  # dashpots on an intermediate body, Maxwell springs on the tip's joints
-      tip_k = params.relaxation_fraction * k[e]
+    g1, tau1, g2, tau2 = params.prony
+    if viscoelastic:  # the first arm: a dashpot on an intermediate body, its spring on the tip
+      tip_k = g1 * k[e]
       parent = carriage.add_body(name=f"el{e}_v", pos=pos)
       for i, axis in enumerate(AXES):
         parent.add_joint(name=f"el{e}_{axis}v", type=mujoco.mjtJoint.mjJNT_SLIDE,
-                         axis=np.eye(3)[i], damping=tip_k[i] * params.relaxation_time)
+                         axis=np.eye(3)[i], damping=tip_k[i] * tau1)
       parent.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
                       contype=0, conaffinity=0, group=3)
+      # the second arm's dashpot, on a body of its own beside the element
+      slow = carriage.add_body(name=f"el{e}_w", pos=pos)
+      for i, axis in enumerate(AXES):
+        slow.add_joint(name=f"el{e}_{axis}w", type=mujoco.mjtJoint.mjJNT_SLIDE,
+                       axis=np.eye(3)[i], damping=g2 * k[e, i] * tau2)
+      slow.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
+                    contype=0, conaffinity=0, group=3)
       pos = [0, 0, 0]
     el = parent.add_body(name=f"el{e}", pos=pos)
     for i, axis in enumerate(AXES):
       el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i],
                    stiffness=tip_k[i],
                    damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
-    if viscoelastic:  # the long-term springs span both joints of each axis
-      for i, axis in enumerate(AXES):
-        tendon = spec.add_tendon(name=f"el{e}_long_{axis}", stiffness=[k[e, i], 0, 0])
+    if viscoelastic:  # the relaxed springs span both joints of each axis (the deflection);
+      for i, axis in enumerate(AXES):  # the second arm's spring, the deflection less its own
+        tendon = spec.add_tendon(name=f"el{e}_long_{axis}",
+                                 stiffness=[(1 - g1 - g2) * k[e, i], 0, 0])
         tendon.wrap_joint(f"el{e}_{axis}v", 1.0)
         tendon.wrap_joint(f"el{e}_{axis}", 1.0)
+        tendon = spec.add_tendon(name=f"el{e}_slow_{axis}", stiffness=[g2 * k[e, i], 0, 0])
+        tendon.wrap_joint(f"el{e}_{axis}v", 1.0)
+        tendon.wrap_joint(f"el{e}_{axis}", 1.0)
+        tendon.wrap_joint(f"el{e}_{axis}w", -1.0)
     el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
                 # Tips collide with the plate only, never with each other.
                 contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
@@ -298,13 +320,19 @@ def element_state(model: mujoco.MjModel, params: FootpadParams,
   else:
     q = qpos[..., idx]
   f = k * q
-  if model.ntendon:  # standard linear solid: long-term spring on qv + q, Maxwell spring on q
+  if model.ntendon:  # two-term Prony: relaxed spring and the second arm's on the deflection
+    # qv + q, the first arm's spring on q, the second's stretched by qv + q - qw
     names = [[f"el{e}_{a}" for a in AXES] for e in range(params.num_elements)]
-    qv = qpos[..., model.jnt_qposadr[[[model.joint(n + "v").id for n in row] for row in names]]]
-    k_long = model.tendon_stiffness[[[model.tendon(f"el{e}_long_{a}").id for a in AXES]
+
+    def joint_q(suffix):
+      return qpos[..., model.jnt_qposadr[[[model.joint(n + suffix).id for n in row]
+                                          for row in names]]]
+
+    def tendon_k(kind):
+      return model.tendon_stiffness[[[model.tendon(f"el{e}_{kind}_{a}").id for a in AXES]
                                      for e in range(params.num_elements)]]
-    q = q + qv
-    f = f + k_long * q
+    q = q + joint_q("v")
+    f = f + tendon_k("long") * q + tendon_k("slow") * (q - joint_q("w"))
   return f, q
 
 

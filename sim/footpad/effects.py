@@ -19,13 +19,14 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "friction_shear_strength 0.15-0.5 MPa, both ranges of low confidence). Needs "
            "`friction`. Static and kinetic friction stay equal (stick-slip is not modelled)."),
     Effect("viscoelastic", Kind.MODEL,
-           "Stress relaxation of the polyurethane: a standard linear solid per element and "
-           "axis (the element spring in parallel with a Maxwell arm of stiffness "
-           "relaxation_fraction * k and time constant relaxation_time). Rubber relaxes in "
-           "shear (its bulk response is nearly elastic), so the shear springs relax alike, "
-           "and the bonded layer's normal stiffness, which its shear modulus sets, too. "
-           "Magnitudes are assumed (20 % over 1 s, of the order reported for soft cast "
-           "polyurethanes); no datasheet gives them for Vytaflex 20."),
+           "Stress relaxation of the polyurethane as a two-term Prony series per element and "
+           "axis (FootpadParams.prony: fast g1 0.05-0.2 at tau1 0.1-2 s, slow g2 0.03-0.15 at "
+           "tau2 10-100 s; defaults 0.12 at 1 s and 0.09 at 30 s; low confidence: soft cast "
+           "polyurethanes, no Prony data for Vytaflex 20). Rubber relaxes in shear (its bulk "
+           "response is nearly elastic), so the shear springs relax alike, and the bonded "
+           "layer's normal stiffness, which its shear modulus sets, too. With one material, "
+           "imposed displacement and stuck contact every die and the plate relax with one "
+           "kernel and the map stays linear: relaxation costs a calibration only with slip."),
     Effect("p_delta", Kind.STRESS,
            "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "
            "contact face has moved, sideways by each element's shear deflection u and towards "
