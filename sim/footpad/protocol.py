@@ -24,7 +24,11 @@ def base(quick: bool, seed: int) -> scene_lib.FootpadScene:
 
 def scenes(scene: scene_lib.FootpadScene) -> dict[str, scene_lib.FootpadScene]:
   """{"train": ..., "test": ...}: `scene` (from `base`, with the user's settings) on the
-  paper's training and test paths."""
+  paper's training and test paths; with a `custom_path`, a third, "custom", runs that file
+  alone."""
   scene.validate()
-  return {"train": dataclasses.replace(scene, paths=TRAIN_PATHS),
-          "test": dataclasses.replace(scene, paths=TEST_PATHS)}
+  out = {"train": dataclasses.replace(scene, paths=TRAIN_PATHS, custom_path=None),
+         "test": dataclasses.replace(scene, paths=TEST_PATHS, custom_path=None)}
+  if scene.custom_path is not None:
+    out["custom"] = dataclasses.replace(scene, paths=())
+  return out

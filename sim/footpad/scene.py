@@ -12,9 +12,11 @@ from __future__ import annotations
 import concurrent.futures
 import copy
 import dataclasses
+import hashlib
 import json
 import math
 import os
+import pathlib
 import time
 from typing import Callable, Optional
 
@@ -23,6 +25,7 @@ import mujoco.rollout
 import numpy as np
 
 from models import fields, footpad as model_lib
+from models import errors
 from models.errors import SimulationError
 from models.fields import setting
 from sim import physics, recording
@@ -35,6 +38,7 @@ PAPER_Z_LEVELS = tuple(round(0.0001 * i, 4) for i in range(16))  # 0-1.5 mm in 0
 # Strain up to which the linear element springs stand for the rubber; the CNC is refused
 # deeper presses (at 100 % the tips would reach the PCB).
 MAX_STRAIN = 0.4
+CNC_REACH = 0.03  # m from the origin: the 32 x 39 mm pad stays on the 120 mm plate
 
 Progress = Callable[[int, int], None]
 
@@ -55,6 +59,9 @@ class FootpadScene:
     kernel: die-stress kernel.
     adc: sensor supply and ADC.
     effects: names from `sim.footpad.effects.EFFECTS`.
+    custom_path: a file with your own CNC path (`sim.footpad.trajectories.read_path`: CSV
+      rows x, y, z in mm and feed in mm/s, or G0/G1 G-code), run once after `paths` as
+      written (z = 0 at first touch, negative pressing); none by default.
     seed: one integer for every random draw of the run.
   """
   params: model_lib.FootpadParams = model_lib.FootpadParams()
@@ -66,6 +73,7 @@ class FootpadScene:
   kernel: layer.Kernel = layer.Kernel.BONDED_LAYER
   adc: sensor_chain.AdcConfig = sensor_chain.AdcConfig(vref=3.3)
   effects: tuple[EffectName, ...] = ("friction",)
+  custom_path: Optional[str] = None
   seed: int = setting(0, "[0, inf)")
 
   @property
@@ -84,14 +92,40 @@ class FootpadScene:
            "coefficient)", self.effects)
 
   def validate(self) -> None:
-    """Raise ValueError naming the first setting outside its allowed range."""
+    """Raise ValueError naming the first setting outside its allowed range (and DataError
+    naming the line of a custom path file that cannot be used)."""
     fields.check(self)
+    if not self.paths and self.custom_path is None:
+      raise errors.SettingError("paths=() and no custom_path: the scene has nothing to run")
+    if self.custom_path is not None:
+      if not pathlib.Path(self.custom_path).is_file():
+        raise errors.SettingError(f"custom_path={self.custom_path!r} is not a file: allowed a "
+                                  f"CSV or G-code path file (see README: your own CNC path)")
+      try:
+        way = trajectories.read_path(self.custom_path)
+      except errors.DataError as err:
+        raise errors.DataError(f"custom_path: {err}") from None
+      deepest = -way.points[:, 2].min()
+      if deepest > self.max_indentation:
+        raise errors.DataError(
+            f"custom_path: path file {self.custom_path} presses {deepest * 1e3:.2f} mm deep; "
+            f"the pad takes at most {self.max_indentation * 1e3:.2f} mm ({MAX_STRAIN:.0%} "
+            f"strain)")
+      reach = np.abs(way.points[:, :2]).max()
+      if reach > CNC_REACH:
+        raise errors.DataError(
+            f"custom_path: path file {self.custom_path} moves {reach * 1e3:.1f} mm from the "
+            f"origin; the rig's plate allows {CNC_REACH * 1e3:g} mm")
 
   def config(self) -> dict:
-    """JSON-able description (the cache key and the recording's metadata)."""
+    """JSON-able description (the cache key and the recording's metadata): a custom path
+    enters with its file's SHA-256, so an edited file is simulated anew."""
     d = dataclasses.asdict(self)
     d["kernel"] = self.kernel.value
     d["effects"] = list(check_effects(self.effects, EFFECTS))
+    if self.custom_path is not None:
+      d["custom_path_sha256"] = hashlib.sha256(
+          pathlib.Path(self.custom_path).read_bytes()).hexdigest()
     return d
 
 
@@ -147,6 +181,8 @@ def episodes(scene: FootpadScene, kernel: np.ndarray) -> list[trajectories.Episo
       continue
     for z in scene.z_levels:
       out.append(trajectories.episode(path, z, scene.feed, dt, repeats=3))
+  if scene.custom_path is not None:
+    out.append(trajectories.waypoint_episode(trajectories.read_path(scene.custom_path), dt))
   return out
 
 

@@ -1,13 +1,17 @@
-"""CNC trajectories of the LSANN paper (Sec. III-B, III-C, Fig. 6), sampled at the step rate.
+"""CNC trajectories of the LSANN paper (Sec. III-B, III-C, Fig. 6), sampled at the step rate,
+and users' own paths.
 
-Every path is an XY route that starts and ends at the origin, run at one Z indentation at a
-constant feed; an episode adds the approach from just above first touch and the retreat.
-`z_press` is the exception: presses straight down to a depth and back, repeated.
+Every paper path is an XY route that starts and ends at the origin, run at one Z indentation
+at a constant feed; an episode adds the approach from just above first touch and the retreat.
+`z_press` is the exception: presses straight down to a depth and back, repeated. A user's
+path (`read_path`: a CSV of waypoints or a G0/G1 G-code file) runs as written
+(`waypoint_episode`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import pathlib
 from typing import Literal
 
 import numpy as np
@@ -129,3 +133,119 @@ def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10
            np.column_stack([np.zeros((len(up), 2)), up])]
   phase = np.concatenate([np.zeros(len(down) + hold), np.ones(len(xy)), np.zeros(len(up))])
   return Episode(path, z_level, np.concatenate(parts), phase.astype(np.int8))
+
+
+@dataclasses.dataclass(frozen=True)
+class Waypoints:
+  """A user's CNC path: straight moves through `points` (K, 3), m, in the rig's frame (x, y
+  on the plate; z = 0 at first touch, negative pressing into the plate), each move at its
+  feed `feeds` (K,), m/s (the first row is the start: its feed is unused)."""
+  points: np.ndarray
+  feeds: np.ndarray
+  name: str
+
+
+def read_path(path: str) -> Waypoints:
+  """Reads a path file: CSV rows `x, y, z, feed` in mm and mm/s (a header row of names, and
+  `#` comments, are skipped), or G-code (`.gcode`, `.nc`, `.ngc`: G0/G1 moves with X Y Z in
+  mm and F in mm/min, modal as G-code is; G0 at `RAPID`; G21 millimetres only; the
+  machine starts at the origin).
+
+  Raises:
+    errors.DataError naming the file, the line and the column that cannot be read.
+  """
+  file = pathlib.Path(path)
+  try:
+    lines = file.read_text().splitlines()
+  except (OSError, UnicodeDecodeError) as err:
+    raise errors.DataError(f"path file {file}: cannot be read ({err})") from None
+  if file.suffix.lower() in (".gcode", ".nc", ".ngc"):
+    rows = _gcode_rows(file, lines)
+  else:
+    rows = _csv_rows(file, lines)
+  if len(rows) < 2:
+    raise errors.DataError(f"path file {file}: needs at least two waypoints, found {len(rows)}")
+  a = np.array(rows, dtype=float)
+  points, feeds = a[:, :3] * 1e-3, a[:, 3] * 1e-3
+  if np.any(feeds[1:] <= 0):
+    k = int(np.flatnonzero(feeds[1:] <= 0)[0]) + 1
+    raise errors.DataError(f"path file {file}: waypoint {k + 1} has feed {a[k, 3]:g}: "
+                           f"a move needs a feed > 0")
+  return Waypoints(points, feeds, f"custom:{file.name}")
+
+
+_COLUMNS = ("x", "y", "z", "feed")
+RAPID = 0.01  # m/s: G0 moves run at this feed (a CNC's rapids would shake the soft pad)
+
+
+def _csv_rows(file: pathlib.Path, lines: list[str]) -> list[list[float]]:
+  rows = []
+  for n, line in enumerate(lines, 1):
+    text = line.split("#")[0].strip()
+    if not text:
+      continue
+    cells = [c.strip() for c in text.split(",")]
+    if not rows and cells and not _is_number(cells[0]):
+      continue  # the header
+    if len(cells) != 4:
+      raise errors.DataError(f"path file {file}, line {n}: {len(cells)} columns; expected x, "
+                             f"y, z (mm), feed (mm/s)")
+    for name, cell in zip(_COLUMNS, cells):
+      if not _is_number(cell):
+        raise errors.DataError(f"path file {file}, line {n}, column {name}: {cell!r} is not "
+                               f"a number")
+    rows.append([float(c) for c in cells])
+  return rows
+
+
+def _gcode_rows(file: pathlib.Path, lines: list[str]) -> list[list[float]]:
+  x = y = z = 0.0
+  feed = None
+  rows = [[x, y, z, 0.0]]
+  for n, line in enumerate(lines, 1):
+    text = line.split(";")[0].split("(")[0].strip().upper()
+    if not text:
+      continue
+    words = text.split()
+    code = words[0]
+    if code in ("G20",):
+      raise errors.DataError(f"path file {file}, line {n}: G20 (inches) is not supported: "
+                             f"write the path in millimetres (G21)")
+    if code not in ("G0", "G00", "G1", "G01"):
+      continue  # units, plane and spindle words carry no motion
+    values = {}
+    for w in words[1:]:
+      if w[0] not in "XYZF" or not _is_number(w[1:]):
+        raise errors.DataError(f"path file {file}, line {n}: {w!r} is not one of X, Y, Z, F "
+                               f"followed by a number")
+      values[w[0]] = float(w[1:])
+    x, y, z = values.get("X", x), values.get("Y", y), values.get("Z", z)
+    feed = values.get("F", feed)
+    if code in ("G0", "G00"):
+      rows.append([x, y, z, RAPID * 1e3])
+      continue
+    if feed is None:
+      raise errors.DataError(f"path file {file}, line {n}: a G1 move before any feed "
+                             f"(F, mm/min)")
+    rows.append([x, y, z, feed / 60.0])
+  return rows
+
+
+def _is_number(text: str) -> bool:
+  try:
+    return np.isfinite(float(text))
+  except ValueError:
+    return False
+
+
+def waypoint_episode(waypoints: Waypoints, dt: float) -> Episode:
+  """The CNC commands of a user's path: each move resampled at its feed; phase 1 where the
+  command presses into the plate (z < 0); the episode's z_level is its deepest press."""
+  parts = [waypoints.points[:1]]
+  for k in range(1, len(waypoints.points)):
+    seg = _resample(waypoints.points[k - 1:k + 1], waypoints.feeds[k] * dt)
+    parts.append(seg[1:])
+  target = np.concatenate(parts)
+  phase = (target[:, 2] < 0).astype(np.int8)
+  return Episode(waypoints.name, float(max(-target[:, 2].min(), 0.0)), target, phase)
+
