@@ -121,19 +121,37 @@ def _digest(arrays: dict[str, np.ndarray]) -> str:
   return h.hexdigest()
 
 
-def split_validation(n: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-  """Random (train, validation) indices, MATLAB `dividerand` style, from one integer seed."""
+def split_validation(n: int, fraction: float, seed: int, block: Optional[int] = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+  """Random (train, validation) indices from one integer seed.
+
+  block=None draws single samples (MATLAB `dividerand`, the paper's): at 1 kHz every
+  validation sample then sits beside training samples, and early stopping rarely fires.
+  With `block` (samples), whole contiguous blocks of that length are held out instead.
+  """
   if not 0 < fraction < 1:
     raise errors.SettingError(f"validation fraction {fraction!r} is out of range: allowed (0, 1)")
-  idx = np.random.default_rng(np.random.SeedSequence([seed, 1])).permutation(n)
-  n_val = max(1, int(round(fraction * n)))
-  return np.sort(idx[n_val:]), np.sort(idx[:n_val])
+  rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
+  if block is None:
+    idx = rng.permutation(n)
+    n_val = max(1, int(round(fraction * n)))
+    return np.sort(idx[n_val:]), np.sort(idx[:n_val])
+  if not 1 <= block <= n // 2:
+    raise errors.SettingError(f"validation block {block!r} is out of range: allowed 1 to "
+                              f"{n // 2} samples (two blocks at least)")
+  starts = np.arange(0, n, block)
+  n_val = max(1, int(round(fraction * len(starts))))
+  held = np.zeros(n, bool)
+  for b in rng.permutation(len(starts))[:n_val]:
+    held[starts[b]:starts[b] + block] = True
+  return np.flatnonzero(~held), np.flatnonzero(held)
 
 
 def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         linear_fit: Optional[linear.LinearFit] = None, config: mlp.LMConfig = mlp.LMConfig(),
         val_fraction: float = 0.15, seed: int = 0, progress=None,
-        degree: int = 3, snapshots: tuple[int, ...] = ()) -> Estimator:
+        degree: int = 3, snapshots: tuple[int, ...] = (),
+        val_block: Optional[int] = None) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -145,6 +163,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     seed: integer for the validation split and the network's start point.
     degree: the polynomial degree of POLY (the shell paper's cubic: 3).
     snapshots: epoch caps to keep the best net at (`at_epoch_cap`).
+    val_block: hold out contiguous blocks of this many samples for validation instead of
+      single samples (`split_validation`).
   """
   kind = Kind(kind)
   counts, forces = linear.check_pair(counts, forces)
@@ -156,7 +176,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
   if kind is Kind.LSANN:
     lin = linear_fit or linear.fit_linear(counts, forces)
     targets = forces - lin.predict(counts)
-  tr, va = split_validation(len(inputs), val_fraction, seed)
+  tr, va = split_validation(len(inputs), val_fraction, seed, val_block)
   res = mlp.train(inputs[tr], targets[tr], inputs[va], targets[va], config, seed, progress,
                   snapshots=snapshots)
   return Estimator(kind, lin, res.net, res)

@@ -77,3 +77,18 @@ def test_lsann_and_nn_agree_within_one_and_a_half_times(table):
   for ax in ("X", "Y", "Z"):
     a, b = table["LSANN"][ax]["nrmse_pct"], table["NN"][ax]["nrmse_pct"]
     assert max(a, b) / min(a, b) < 1.5, (ax, a, b)
+
+
+def test_blocks_split_holds_out_whole_contiguous_blocks():
+  tr, va = estimators.split_validation(10_000, 0.15, seed=3, block=1000)
+  assert len(np.intersect1d(tr, va)) == 0 and len(tr) + len(va) == 10_000
+  assert len(va) == 2000  # round(0.15 x 10 blocks) = 2 blocks
+  starts = va[np.flatnonzero(np.diff(np.concatenate([[-2], va])) > 1)]
+  assert all(s % 1000 == 0 for s in starts) and len(starts) <= 2
+  again = estimators.split_validation(10_000, 0.15, seed=3, block=1000)
+  np.testing.assert_array_equal(again[1], va)
+  # the paper's split: single samples, almost every one beside a training sample
+  _, single = estimators.split_validation(10_000, 0.15, seed=3)
+  assert np.mean(np.diff(single) == 1) < 0.3
+  with pytest.raises(ValueError, match="validation block"):
+    estimators.split_validation(100, 0.15, seed=0, block=80)
