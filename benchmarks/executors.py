@@ -314,3 +314,19 @@ def sweep(fn: Callable[[Point], Any], points: list[Point], spec: ExecutorSpec = 
   failures = [Failure(i, points[i], errors.get(i, "not run"))
               for i in range(len(points)) if results[i] is None]
   return results, failures
+
+
+def run_designs(ctx, fn: Callable[[Point], Any], points: list[Point],
+                describe: Callable[[Point], Any]) -> tuple[list, list[Failure], float]:
+  """A benchmark's sweep: `sweep` on the run's executor, its finished points kept in
+  DIR/points/, progress as designs complete, each design that failed twice printed (as
+  `describe(point)`). Returns the results (None where failed), the failures and the seconds."""
+  import time
+  t0 = time.perf_counter()
+  results, failures = sweep(fn, points, ctx.executor, PointStore(ctx.out / "points"),
+                            ctx.progress("designs"))
+  seconds = time.perf_counter() - t0
+  for f in failures:
+    ctx.print(f"design {describe(f.point)} failed twice: {f.error.strip().splitlines()[-1]}")
+  return results, failures, seconds
+

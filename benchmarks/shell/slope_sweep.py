@@ -134,13 +134,8 @@ def run(ctx) -> dict:
   ctx.print(f"{len(designs)} designs over {', '.join(f'{n} ({len(v)})' for n, v in axes.items())}"
             f"; static path, {points[0]['frames'][0]} + {points[0]['frames'][1]} frames each; "
             f"executor {ctx.executor.kind}")
-  t0 = time.perf_counter()
-  results, failures = executors.sweep(evaluate, points, ctx.executor,
-                                      executors.PointStore(ctx.out / "points"),
-                                      ctx.progress("designs"))
-  grid_seconds = time.perf_counter() - t0
-  for f in failures:
-    ctx.print(f"design {f.point['design']} failed twice: {f.error.strip().splitlines()[-1]}")
+  results, failures, grid_seconds = executors.run_designs(ctx, evaluate, points,
+                                                          lambda p: p["design"])
   rows = [dict(r, design=p["design"]) for r, p in zip(results, points) if r is not None]
   if not rows or results[-1] is None:
     raise RuntimeError("the sweep produced no results: see the failures above")

@@ -1,0 +1,203 @@
+"""footpad_envelope: where the LSANN paper's Table I falls among the footpad's sourced
+non-idealities.
+
+Each effect whose magnitude is only known within a range is simulated over that range:
+N designs (a Latin hypercube, `designs`) draw the Thirion friction law (`pressure_friction`:
+mu0 1.2-2.5, tau_s 0.15-0.5 MPa), the two-term Prony relaxation (`viscoelastic`: g1 0.05-0.2
+at tau1 0.1-2 s, g2 0.03-0.15 at tau2 10-100 s, times drawn on a log scale), the dies'
+hysteresis (0-1.2 % of span) and their thermal drift (offset and gain 0-1.5 %), every other
+effect of the protocol at its default. Each design runs the paper's protocol (LS on the Z
+presses and X/Y strokes, LSANN and NN-only on the Asterisk path with `network_seeds` seeds,
+all tested on Testing Paths 1 and 2) through the sweep executor. Printed: per metric of
+Table I, the envelope (min, median, max over the designs) beside the paper's value and
+whether the paper lies inside; and each drawn parameter's share of the variance of the
+networks' shear R2 (squared standardised regression coefficients of a linear fit over the
+designs, with that fit's R2). Finished designs are kept in DIR/points/, so an interrupted
+run resumes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from benchmarks.registry import register
+from models import fields
+from models.fields import setting
+
+# name: (low, high, drawn on a log scale), each with the source of its range in the
+# docstrings of FootpadParams and AdcConfig and in docs/physics.md
+RANGES = {
+    "params.friction_mu0": (1.2, 2.5, False),
+    "params.friction_shear_strength": (0.15e6, 0.5e6, False),
+    "prony.g1": (0.05, 0.2, False),
+    "prony.tau1": (0.1, 2.0, True),
+    "prony.g2": (0.03, 0.15, False),
+    "prony.tau2": (10.0, 100.0, True),
+    "adc.hysteresis": (0.0, 0.012, False),
+    "adc.drift_offset": (0.0, 0.015, False),
+    "adc.drift_gain": (0.0, 0.015, False),
+}
+ENVELOPE_EFFECTS = ("pressure_friction", "viscoelastic", "hysteresis", "thermal_drift")
+SHEAR_R2 = "mean shear R2 % of the networks (X and Y; LSANN and NN-only)"
+
+
+@fields.declared
+@dataclasses.dataclass(frozen=True)
+class Envelope:
+  """Settings of the envelope benchmark.
+
+  Attributes:
+    designs: Latin-hypercube draws over the sourced ranges.
+    network_seeds: seeds per network and design (the paper's tables: medians over these).
+  """
+  designs: int = setting(32, "[2, 1000]")
+  network_seeds: int = setting(2, "[1, 10]")
+
+
+def settings(quick: bool, seed: int) -> Envelope:
+  # twelve: more designs than drawn parameters plus one, or the sensitivity fit is undetermined
+  return Envelope(designs=12, network_seeds=1) if quick else Envelope()
+
+
+def latin_hypercube(n: int, d: int, rng: np.random.Generator) -> np.ndarray:
+  """(n, d) points in [0, 1): each column has one point in each of n equal strata."""
+  return (np.argsort(rng.random((d, n)), axis=1).T + rng.random((n, d))) / n
+
+
+def design_values(unit: np.ndarray) -> dict[str, float]:
+  """The parameter values of one design from its point (d,) in the unit hypercube."""
+  out = {}
+  for u, (name, (lo, hi, log)) in zip(unit, RANGES.items()):
+    out[name] = float(np.exp(np.log(lo) + u * np.log(hi / lo)) if log else lo + u * (hi - lo))
+  return out
+
+
+def design_scene(base, values: dict[str, float]):
+  """The protocol's scene `base` with the design's values and every envelope effect on."""
+  params, adc = base.params, base.adc
+  prony = (values["prony.g1"], values["prony.tau1"], values["prony.g2"], values["prony.tau2"])
+  params = dataclasses.replace(params, prony=prony, **{
+      k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("params.")})
+  adc = dataclasses.replace(adc, **{k.split(".", 1)[1]: v for k, v in values.items()
+                                    if k.startswith("adc.")})
+  effects = tuple(dict.fromkeys(base.effects + ENVELOPE_EFFECTS))
+  return dataclasses.replace(base, params=params, adc=adc, effects=effects)
+
+
+def evaluate(point: dict) -> dict:
+  """One design through the paper's protocol (runs in a worker: everything comes from the
+  point)."""
+  from calibrate import estimators, metrics
+  from sim.footpad import protocol, scene as scene_lib
+  base = fields.build(scene_lib.FootpadScene, point["base"])
+  scene = design_scene(base, point["values"])
+  recs = {name: scene_lib.generate(s)[0] for name, s in protocol.scenes(scene).items()}
+  strokes = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
+  net = recs["train"].on_path("asterisk")
+  test = recs["test"].on_path()
+  axes = ("X", "Y", "Z")
+  truth = test.wrench[:, :3]
+  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3])
+  out = {"LS": metrics.summary(ls.predict(test.counts), truth, axes),
+         "LS_train": metrics.summary(ls.predict(strokes.counts), strokes.wrench[:, :3], axes)}
+  runs = {"LSANN": [], "NN": []}
+  for seed in point["seeds"]:
+    for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
+      est = estimators.fit(kind, net.counts, net.wrench[:, :3], linear_fit=ls.linear,
+                           seed=seed)
+      runs[kind.value].append((metrics.summary(est.predict(test.counts), truth, axes),
+                               est.training.seconds, est.training.epochs))
+  for m, rs in runs.items():
+    out[m] = {ax: {k: float(np.median([r[0][ax][k] for r in rs])) for k in rs[0][0][ax]}
+              for ax in axes}
+  out["time_ratio"] = float(np.median([a[1] / b[1] for a, b in zip(runs["LSANN"], runs["NN"])]))
+  out["iteration_ratio"] = float(np.median([a[2] / max(b[2], 1)
+                                            for a, b in zip(runs["LSANN"], runs["NN"])]))
+  out["slip"] = float(np.mean(recs["train"].slip[recs["train"].phase == 1]))
+  return out
+
+
+def sensitivity(units: np.ndarray, target: np.ndarray) -> tuple[dict[str, float], float]:
+  """Each parameter's share of the variance of `target` over the designs: squared
+  standardised regression coefficients of a linear fit, normalised; and that fit's R2."""
+  x = (units - units.mean(0)) / units.std(0)
+  y = (target - target.mean()) / target.std()
+  a = np.column_stack([x, np.ones(len(x))])
+  coef = np.linalg.lstsq(a, y, rcond=None)[0][:-1]
+  r2 = 1 - np.sum((a @ np.append(coef, 0) - y) ** 2) / np.sum(y ** 2)
+  share = coef ** 2 / np.sum(coef ** 2)
+  return dict(zip(RANGES, share.tolist())), float(r2)
+
+
+@register("footpad_envelope", "footpad: the paper's Table I against the envelope of the "
+          "sourced friction, relaxation, hysteresis and drift ranges; sensitivity of shear R2",
+          settings=settings, tags=("footpad", "paper", "envelope", "sweep"))
+def run(ctx) -> dict:
+  from benchmarks import executors
+  from benchmarks.footpad import table
+  from sim.footpad import protocol, scene as scene_lib
+  s = ctx.settings
+  base = protocol.base(ctx.quick, ctx.seed)
+  rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
+  units = latin_hypercube(s.designs, len(RANGES), rng)
+  seeds = [int(x.generate_state(1)[0])
+           for x in np.random.SeedSequence(ctx.seed, spawn_key=(12,)).spawn(s.network_seeds)]
+  points = [{"base": scene_lib.FootpadScene.config(base), "values": design_values(u),
+             "seeds": seeds} for u in units]
+  ctx.print(f"{s.designs} designs over {len(RANGES)} sourced ranges, "
+            f"{'3' if ctx.quick else '16'} Z levels, {s.network_seeds} network seed(s) each; "
+            f"executor {ctx.executor.kind}")
+  results, failures, seconds = executors.run_designs(ctx, evaluate, points,
+                                                     lambda p: p["values"])
+  done = [k for k, r in enumerate(results) if r is not None]
+  if len(done) < 2:
+    raise RuntimeError("fewer than two designs finished: see the failures above")
+  rows = [results[k] for k in done]
+
+  def envelope(values, paper):
+    lo, med, hi = np.min(values), np.median(values), np.max(values)
+    inside = None if paper is None else bool(lo <= paper <= hi)
+    return {"min": float(lo), "median": float(med), "max": float(hi), "paper": paper,
+            "paper_inside": inside}
+
+  table_rows = {}
+  ctx.print(f"\n{'metric':26s} {'min':>8s} {'median':>8s} {'max':>8s} {'paper':>8s}  inside")
+  for m in ("LS", "LSANN", "NN"):
+    for ax in ("Z", "Y", "X"):
+      for key, i in (("nrmse_pct", 1), ("r2_pct", 2)):
+        paper = table.PAPER_TABLE1.get(m, {}).get(ax)
+        table_rows[f"{m} {ax} {key}"] = envelope([r[m][ax][key] for r in rows],
+                                                 paper[i] if paper else None)
+  for ax in ("Z", "Y", "X"):
+    table_rows[f"LS strokes {ax} nrmse_pct"] = envelope(
+        [r["LS_train"][ax]["nrmse_pct"] for r in rows], table.PAPER_LS_TRAIN_NRMSE[ax])
+  table_rows["LSANN/NN time"] = envelope([r["time_ratio"] for r in rows], 59.0 / 144.5)
+  table_rows["LSANN/NN epochs"] = envelope([r["iteration_ratio"] for r in rows], 59.0 / 144.5)
+  for name, e in table_rows.items():
+    paper = f"{e['paper']:8.2f}" if e["paper"] is not None else f"{'':8s}"
+    inside = {True: "yes", False: "no", None: ""}[e["paper_inside"]]
+    ctx.print(f"{name:26s} {e['min']:8.2f} {e['median']:8.2f} {e['max']:8.2f} {paper}  {inside}")
+
+  shear = np.array([np.mean([r[m][ax]["r2_pct"] for m in ("LSANN", "NN") for ax in ("X", "Y")])
+                    for r in rows])
+  shares, fit_r2 = {}, None
+  if len(rows) > len(RANGES) + 1:
+    shares, fit_r2 = sensitivity(units[done], shear)
+    ctx.print(f"\nsensitivity of the {SHEAR_R2} (range {shear.min():.2f}-{shear.max():.2f} "
+              f"over the designs): share of its variance per parameter (a linear fit over "
+              f"the designs explains {fit_r2:.0%})")
+    for name, share in sorted(shares.items(), key=lambda kv: -kv[1]):
+      ctx.print(f"  {name:32s} {share:6.1%}")
+  else:
+    ctx.print(f"\nsensitivity: needs more than {len(RANGES) + 1} finished designs "
+              f"(--set designs=N); {len(rows)} finished")
+  ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
+            f"on {ctx.executor.kind}")
+  return {"ranges": {k: list(v) for k, v in RANGES.items()}, "designs": [
+              {"values": points[k]["values"], **results[k]} for k in done],
+          "envelope": table_rows, "sensitivity": {"target": SHEAR_R2, "shares": shares,
+                                                  "linear_fit_r2": fit_r2},
+          "failures": [dataclasses.asdict(f) for f in failures],
+          "speed": {"seconds": seconds, "per_design": seconds / len(rows)}}
