@@ -70,13 +70,18 @@ def _route(name: str, repeats: int) -> list[np.ndarray]:
       pts += _out_and_back(ang)[1:]
     for c in ((0.0015, 0), (-0.0015, 0), (0, 0.0015), (0, -0.0015)):
       pts += _circle(c, (0, 0), 1)[1:]
+  elif name == "square":  # none of the paper's: a 4 mm square corner to corner, then its
+    for _ in range(repeats):  # diagonals, for generalisation at untrained depths
+      pts += [np.array(c, float) for c in ((0.002, 0.002), (-0.002, 0.002), (-0.002, -0.002),
+                                           (0.002, -0.002), (0.002, 0.002), (-0.002, -0.002),
+                                           (0, 0))]
   else:
     raise errors.SettingError(f"unknown path {name!r}: allowed {', '.join(PATHS)}")
   return pts
 
 
 PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular", "test_path_1",
-         "test_path_2")
+         "test_path_2", "square")
 PathName = Literal[PATHS]  # what a scene's `paths` field takes
 
 
