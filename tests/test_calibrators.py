@@ -64,9 +64,10 @@ def test_z_is_estimated_far_better_than_shear(table):
     assert z < 3.0 and z < table[m]["X"]["nrmse_pct"] and z < table[m]["Y"]["nrmse_pct"], m
 
 
-@pytest.mark.xfail(strict=True, reason="the networks learn the simulated shear (R2 > 99 %): "
-                   "the counts fix the force, since hysteresis and stick-slip history are not "
-                   "simulated by default; see footpad_table docstring")
+@pytest.mark.xfail(strict=True, reason="at the sourced nominal values the networks' shear R2 "
+                   "is 93.8-96.7 % (quick, measured), above the paper's 72-84 %; the paper lies "
+                   "inside the envelope of the sourced ranges (footpad_envelope --quick), not "
+                   "at its nominal point")
 def test_shear_r2_in_the_papers_neighbourhood(table):
   for m in footpad_table.METHODS:
     for ax in ("X", "Y"):
