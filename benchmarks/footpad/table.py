@@ -126,7 +126,9 @@ def _generalisation(ctx, ls, est_dir, n_seeds) -> dict:
   from calibrate import estimators, metrics
   from sim.footpad import scene as scene_lib
   levels = sorted(ctx.settings.z_levels)
-  between = tuple(round((a + b) / 2, 6) for a, b in zip(levels, levels[1:]) if b - a > 1e-4)
+  # every gap between distinct levels (the paper's are 0.1 mm apart: 1e-4 itself is no
+  # threshold, float spacing puts some gaps a hair under it)
+  between = tuple(round((a + b) / 2, 6) for a, b in zip(levels, levels[1:]) if b - a > 1e-6)
   if not between:
     return {}
   scene = dataclasses.replace(ctx.settings, paths=("square",), z_levels=between)
