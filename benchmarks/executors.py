@@ -23,10 +23,12 @@ from __future__ import annotations
 import concurrent.futures
 import ctypes
 import dataclasses
+import functools
 import hashlib
 import multiprocessing
 import os
 import pathlib
+import time
 import traceback
 import warnings
 from typing import Any, Callable, Iterator, Literal, Optional
@@ -116,9 +118,7 @@ def _digest(result: Any) -> str:
   return hashlib.sha256(files.json_text(result, sort_keys=True).encode()).hexdigest()
 
 
-_MALLOC_TUNED = False
-
-
+@functools.cache  # once per process
 def _keep_freed_memory() -> None:
   """Lets this process keep the memory of freed arrays (glibc only; elsewhere a no-op).
 
@@ -128,10 +128,6 @@ def _keep_freed_memory() -> None:
   145 designs 12.0 s -> 10.5 s on 2 workers once kept). An mmap threshold of 32 MB
   (glibc's largest) and a trim threshold of 512 MB keep it; numbers do not change.
   """
-  global _MALLOC_TUNED
-  if _MALLOC_TUNED:
-    return
-  _MALLOC_TUNED = True
   try:
     libc = ctypes.CDLL("libc.so.6")
   except OSError:
@@ -279,7 +275,7 @@ def sweep(fn: Callable[[Point], Any], points: list[Point], spec: ExecutorSpec = 
   if progress:
     progress(done, len(points))
   attempts = {i: 0 for i in todo}
-  errors: dict[int, str] = {}
+  last_error: dict[int, str] = {}
   dask = _Dask(spec) if spec.kind == "dask" and todo else None
   try:
     retry = False
@@ -304,14 +300,14 @@ def sweep(fn: Callable[[Point], Any], points: list[Point], spec: ExecutorSpec = 
             progress(done, len(points))
         else:
           attempts[i] += 1
-          errors[i] = str(err)
+          last_error[i] = str(err)
       # a failed point is retried once; what a broken pool never ran runs again
       todo = sorted(i for i in attempts if results[i] is None and attempts[i] < 2)
       retry = any(attempts[i] for i in todo)
   finally:
     if dask is not None:
       dask.close()
-  failures = [Failure(i, points[i], errors.get(i, "not run"))
+  failures = [Failure(i, points[i], last_error.get(i, "not run"))
               for i in range(len(points)) if results[i] is None]
   return results, failures
 
@@ -321,7 +317,6 @@ def run_designs(ctx, fn: Callable[[Point], Any], points: list[Point],
   """A benchmark's sweep: `sweep` on the run's executor, its finished points kept in
   DIR/points/, progress as designs complete, each design that failed twice printed (as
   `describe(point)`). Returns the results (None where failed), the failures and the seconds."""
-  import time
   t0 = time.perf_counter()
   results, failures = sweep(fn, points, ctx.executor, PointStore(ctx.out / "points"),
                             ctx.progress("designs"))

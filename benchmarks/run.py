@@ -24,7 +24,8 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
   for item in items:
     key, eq, value = item.partition("=")
     if not eq or not key.strip():
-      raise errors.SettingError(f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
+      raise errors.SettingError(
+          f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
     out[key.strip()] = value.strip()
   return out
 
@@ -105,6 +106,9 @@ def main(argv: Optional[list[str]] = None) -> int:
   before, warnings.formatwarning = warnings.formatwarning, _warning_line
   try:
     return _main(argv)
+  except errors.UserError as err:  # the user's to fix (a setting, a file, --out): one line
+    print(f"error: {err}", file=sys.stderr)
+    return 2
   except Exception:  # a bug before the results folder was known (a run's own are in _run)
     from sim import cache
     stamp = time.strftime("%Y%m%d-%H%M%S")
@@ -146,22 +150,14 @@ def _main(argv: Optional[list[str]]) -> int:
     print(benchmark_help(bench, args.quick, args.seed))
     return 0
   from sim import settings
-  try:
-    overrides = _parse_sets(args.sets)
-    applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
-  except errors.UserError as err:  # a setting out of range: one line, no traceback
-    print(f"error: {err}", file=sys.stderr)
-    return 2
+  overrides = _parse_sets(args.sets)
+  applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
   if args.workers is not None and not 1 <= args.workers <= 1024:
     parser.error(f"--workers {args.workers} is out of range: allowed 1 to 1024")
   if args.address and args.executor != "dask":
     parser.error("--address joins a Dask scheduler: add --executor dask")
   out = args.out or pathlib.Path("results") / args.name
-  try:  # before any simulation: a run that cannot write its results does not start
-    lock = outputs.claim(out)
-  except errors.UserError as err:
-    print(f"error: {err}", file=sys.stderr)
-    return 2
+  lock = outputs.claim(out)  # before any simulation: a run that cannot write does not start
   try:
     return _run(bench, args, applied, overrides, out)
   finally:
@@ -179,9 +175,8 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   t0 = time.perf_counter()
   try:
     result = bench.run(ctx)
-  except errors.UserError as err:  # the user's to fix: one line
-    print(f"error: {err}", file=sys.stderr)
-    return 2
+  except errors.UserError:
+    raise  # one line, from main
   except KeyboardInterrupt:
     print("interrupted: finished points and cached recordings are kept; rerun the same "
           "command to go on", file=sys.stderr)

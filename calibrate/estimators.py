@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-import hashlib
 import pathlib
 import zipfile
 from typing import Optional
@@ -56,7 +55,7 @@ class Estimator:
                     net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
                     net_y_hi=self.net.y_scale.hi)
     meta = {"kind": self.kind.value, "format": FORMAT, "version": VERSION,
-            "sha256": _digest(arrays)}
+            "sha256": files.array_digest(arrays)}
     if self.linear is not None:
       meta.update(rank=self.linear.rank, degree=self.linear.degree)
     files.atomic_write(pathlib.Path(path),
@@ -77,7 +76,7 @@ class Estimator:
         arrays = {k: z[k] for k in z.files if k != "meta"}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
       raise errors.DataError(f"estimator {path}: cannot be read ({err})") from None
-    files.check_header(meta, path, "estimator", FORMAT, VERSION, _digest(arrays))
+    files.check_header(meta, path, "estimator", FORMAT, VERSION, files.array_digest(arrays))
     bad = [k for k, a in arrays.items() if not np.isfinite(a).all()]
     if bad:
       raise errors.DataError(f"estimator {path}: {', '.join(bad)} hold NaN or inf")
@@ -110,15 +109,6 @@ class Estimator:
 
 FORMAT = "testbench-estimator"
 VERSION = 2  # 1: no format tag or checksum
-
-
-def _digest(arrays: dict[str, np.ndarray]) -> str:
-  h = hashlib.sha256()
-  for k in sorted(arrays):
-    a = np.ascontiguousarray(arrays[k])
-    h.update(f"{k}{a.dtype.str}{a.shape}".encode())
-    h.update(a.tobytes())
-  return h.hexdigest()
 
 
 def split_validation(n: int, fraction: float, seed: int, block: Optional[int] = None

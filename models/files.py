@@ -8,6 +8,7 @@ imports only `models.errors`, so `calibrate` and `sim` share it.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import pathlib
@@ -97,6 +98,16 @@ def from_json(text: str) -> Any:
       return [back(x) for x in v]
     return v
   return back(json.loads(text))
+
+
+def array_digest(arrays: dict[str, np.ndarray]) -> str:
+  """SHA-256 of named arrays: their names, dtypes, shapes and bytes, in name order."""
+  h = hashlib.sha256()
+  for k in sorted(arrays):
+    a = np.ascontiguousarray(arrays[k])
+    h.update(f"{k}{a.dtype.str}{a.shape}".encode())
+    h.update(a.tobytes())
+  return h.hexdigest()
 
 
 def check_header(head: Any, path: pathlib.Path, kind: str, tag: str, version: int,

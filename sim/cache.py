@@ -48,12 +48,13 @@ def cached_array(kind: str, key: dict[str, Any], compute: Callable[[], np.ndarra
 
   The file holds the array and a SHA-256 of its bytes, dtype and shape: a damaged or edited
   file is reported (a warning naming it), deleted and computed again."""
-  path = cache_dir() / kind / (content_key(key) + ".npz")
+  # the file format enters the key: files of an older format are simply not found
+  path = cache_dir() / kind / (content_key({"key": key, "format": 2}) + ".npz")
   if path.exists():
     try:
       with np.load(path) as z:
         value, digest = z["value"], str(z["sha256"])
-      if digest != _array_digest(value):
+      if digest != files.array_digest({"value": value}):
         raise ValueError("its array does not match the checksum written with it")
       return value
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
@@ -62,12 +63,6 @@ def cached_array(kind: str, key: dict[str, Any], compute: Callable[[], np.ndarra
       path.unlink(missing_ok=True)
   value = compute()
   path.parent.mkdir(parents=True, exist_ok=True)
-  files.atomic_write(path, lambda f: np.savez(f, value=value,
-                                              sha256=np.array(_array_digest(value))))
+  files.atomic_write(path, lambda f: np.savez(
+      f, value=value, sha256=np.array(files.array_digest({"value": value}))))
   return value
-
-
-def _array_digest(value: np.ndarray) -> str:
-  h = hashlib.sha256(np.ascontiguousarray(value).tobytes())
-  h.update(f"{value.dtype.str}{value.shape}".encode())
-  return h.hexdigest()

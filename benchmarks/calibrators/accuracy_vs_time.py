@@ -73,9 +73,7 @@ def _data(ctx, rig: str) -> dict:
     from sim.footpad import protocol
     recs = {n: rec for n, (rec, _) in footpad.recordings(
         ctx, protocol.base(ctx.quick, ctx.seed)).items()}
-    lin = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
-    net = recs["train"].on_path("asterisk")
-    test = recs["test"].on_path()
+    lin, net, test = protocol.splits(recs["train"], recs["test"]).values()
 
     def error(pred, truth):
       return float(np.mean(metrics.nrmse_pct(pred, truth)))

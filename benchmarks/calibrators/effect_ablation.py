@@ -53,7 +53,7 @@ def _footpad(ctx) -> tuple[list[dict], str]:
   for name, chosen in _configs(("friction",), effects.EFFECTS):
     rec, t = scene.generate(dataclasses.replace(base, effects=chosen),
                             ctx.progress(f"footpad {name}"), use_cache=False)
-    train = rec.on_path("z_press", "x_stroke", "y_stroke")
+    train = rec.on_path(*protocol.LS_PATHS)
     test = rec.on_path("test_path_1")
     ls = estimators.fit(estimators.Kind.LS, train.counts, train.wrench[:, :3])
     err = metrics.nrmse_pct(ls.predict(test.counts), test.wrench[:, :3])

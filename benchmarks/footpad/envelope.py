@@ -94,9 +94,7 @@ def evaluate(point: dict) -> dict:
   base = fields.build(scene_lib.FootpadScene, point["base"])
   scene = design_scene(base, point["values"])
   recs = {name: scene_lib.generate(s)[0] for name, s in protocol.scenes(scene).items()}
-  strokes = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
-  net = recs["train"].on_path("asterisk")
-  test = recs["test"].on_path()
+  strokes, net, test = protocol.splits(recs["train"], recs["test"]).values()
   axes = ("X", "Y", "Z")
   truth = test.wrench[:, :3]
   ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3])

@@ -43,10 +43,9 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
   """Fits LS, LSANN and NN-only as the paper does, the networks on `nn_paths`, and prints
   Table I against the paper's."""
   from calibrate import estimators, metrics
+  from sim.footpad import protocol
   recs = {name: rec for name, (rec, _) in footpad.recordings(ctx).items()}
-  strokes = recs["train"].on_path("z_press", "x_stroke", "y_stroke")
-  nn_train = recs["train"].on_path(*nn_paths)
-  test = recs["test"].on_path()
+  strokes, nn_train, test = protocol.splits(recs["train"], recs["test"], nn_paths).values()
   truth = test.wrench[:, :3]
 
   t0 = time.perf_counter()
@@ -65,12 +64,14 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
   est_dir.mkdir(parents=True, exist_ok=True)
   ls.save(est_dir / "LS.npz")
   per_seed = []
+  fitted = {"LS": [ls], "LSANN": [], "NN": []}
   for k, seed in enumerate(child):
     row, trained = {"seed": seed}, {}
     for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
       est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
                            seed=seed, progress=ctx.progress(f"{kind.value} seed {k + 1}/{n_seeds}"))
       est.save(est_dir / f"{kind.value}_seed{k}.npz")
+      fitted[kind.value].append(est)
       tr = trained[kind.value] = est.training
       row[kind.value] = {"test": metrics.summary(est.predict(test.counts), truth, AXES),
                          "train": {"seconds": tr.seconds, "compile_seconds": tr.compile_seconds,
@@ -109,7 +110,7 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
                                       for ax in AXES} for m in ("LSANN", "NN")},
   }
   _print_table(ctx, results, comparison, n_seeds)
-  general = _generalisation(ctx, ls, est_dir, n_seeds)
+  general = _generalisation(ctx, fitted)
   blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
   return {"results": results, "LS_train": ls_train, "per_seed": per_seed,
           "validation_blocks": blocks, "generalisation": general,
@@ -120,10 +121,11 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
           "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
 
 
-def _generalisation(ctx, ls, est_dir, n_seeds) -> dict:
-  """The fitted estimators on a path that is none of the paper's (`square`), at depths
-  halfway between the training levels: how they do where they were not trained."""
-  from calibrate import estimators, metrics
+def _generalisation(ctx, fitted: dict) -> dict:
+  """The fitted estimators ({method: [estimator per seed]}) on a path that is none of the
+  paper's (`square`), at depths halfway between the training levels: how they do where they
+  were not trained."""
+  from calibrate import metrics
   from sim.footpad import scene as scene_lib
   levels = sorted(ctx.settings.z_levels)
   # every gap between distinct levels (the paper's are 0.1 mm apart: 1e-4 itself is no
@@ -138,12 +140,9 @@ def _generalisation(ctx, ls, est_dir, n_seeds) -> dict:
   out = {"path": "square", "z_levels_mm": [z * 1e3 for z in between], "samples": len(held)}
   ctx.print(f"\ngeneralisation: the square path (none of the paper's) at "
             f"{', '.join(f'{z * 1e3:g}' for z in between)} mm, between the training depths; "
-            f"test NRMSE % / R2 % Z, Y, X (networks: median of {n_seeds} seeds)")
+            f"test NRMSE % / R2 % Z, Y, X (networks: median of {len(fitted['NN'])} seeds)")
   for m in METHODS:
-    files = [est_dir / "LS.npz"] if m == "LS" else [est_dir / f"{m}_seed{k}.npz"
-                                                     for k in range(n_seeds)]
-    summaries = [metrics.summary(estimators.Estimator.load(f).predict(held.counts), truth, AXES)
-                 for f in files]
+    summaries = [metrics.summary(est.predict(held.counts), truth, AXES) for est in fitted[m]]
     out[m] = {ax: {key: float(np.median([s[ax][key] for s in summaries]))
                    for key in summaries[0][ax]} for ax in AXES}
     ctx.print(f"  {m:6s} " + "   ".join(f"{ax} {out[m][ax]['nrmse_pct']:6.2f} / "
@@ -169,17 +168,15 @@ def _blocks_split(ctx, ls, nn_train, test, seeds, per_seed) -> dict:
       est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
                            seed=seed, val_block=BLOCK,
                            progress=ctx.progress(f"{kind.value} blocks seed {k + 1}"))
-      test_m = metrics.summary(est.predict(test.counts), truth, AXES)
-      rows.append({"test": test_m, "epochs": est.training.epochs,
-                   "stop": est.training.stop.name})
+      rows.append({"test": metrics.summary(est.predict(test.counts), truth, AXES),
+                   "train": {"iterations": est.training.epochs,
+                             "stop": est.training.stop.name}})
     out[kind.value] = rows
     for name, recs in (("samples", [r[kind.value] for r in per_seed[:len(seeds)]]),
                        ("blocks", rows)):
       nrmse = [np.median([r["test"][ax]["nrmse_pct"] for r in recs]) for ax in ("Z", "Y", "X")]
-      epochs = np.median([r["train"]["iterations"] if "train" in r else r["epochs"]
-                          for r in recs])
-      stops = ", ".join(sorted({r["train"]["stop"] if "train" in r else r["stop"]
-                                for r in recs}))
+      epochs = np.median([r["train"]["iterations"] for r in recs])
+      stops = ", ".join(sorted({r["train"]["stop"] for r in recs}))
       ctx.print(f"  {kind.value:6s} {name:8s} " + " / ".join(f"{v:5.2f}" for v in nrmse) +
                 f"   {epochs:5.0f} epochs   {stops}")
   return out

@@ -7,6 +7,7 @@ import dataclasses
 from sim.footpad import scene as scene_lib
 
 TRAIN_PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular")
+LS_PATHS = ("z_press", "x_stroke", "y_stroke")  # the linear fit's data (Sec. III-B)
 TEST_PATHS = ("test_path_1", "test_path_2")
 # Every effect of the paper's bench whose magnitude has a stated source or range (p_delta has
 # no free parameter), ranged ones at their nominal values (`footpad_envelope` spans them).
@@ -33,3 +34,12 @@ def scenes(scene: scene_lib.FootpadScene) -> dict[str, scene_lib.FootpadScene]:
   if scene.custom_path is not None:
     out["custom"] = dataclasses.replace(scene, paths=())
   return out
+
+
+def splits(train, test, nn_paths: tuple[str, ...] = ("asterisk",)) -> dict:
+  """The protocol's data from its training and test recordings, on their paths at their
+  indentation: {"linear": the Z presses and X/Y strokes LS fits, "net": `nn_paths` the
+  networks train on (Sec. III-C), "test": every test path}."""
+  return {"linear": train.on_path(*LS_PATHS), "net": train.on_path(*nn_paths),
+          "test": test.on_path()}
+

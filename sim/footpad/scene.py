@@ -264,6 +264,9 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     for m in models:  # the tip's coefficient decides (MuJoCo takes the larger of the two)
       m.geom_friction[m.geom("plate").id, 0] = 0.0
   tips = [model.geom(f"tip{e}").id for e in range(scene.params.num_elements)]
+  # one set of coefficients per depth, before the threads start (not one per episode)
+  friction = {z: episode_friction(scene, z) for z in {ep.z_level for ep in eps}} \
+      if per_element else {}
   datas = [mujoco.MjData(m) for m in models]
   t1 = time.perf_counter()
 
@@ -281,8 +284,8 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     m = models[slot]
     try:
       if per_element:
-        m.geom_friction[tips, 0] = episode_friction(scene, eps[i].z_level)
-      qpos, sens, physics = _run_episode(m, datas[slot], eps[i])
+        m.geom_friction[tips, 0] = friction[eps[i].z_level]
+      qpos, sens, physics_s = _run_episode(m, datas[slot], eps[i])
       mu = model_lib.contact_friction(m)
     finally:
       free.append(slot)
@@ -293,7 +296,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
     slip = slip_share(forces, mu) if "friction" in effects else np.zeros(len(forces))
     chain = time.perf_counter() - t
-    return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics,
+    return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics_s,
                chain)
 
   done = 0
