@@ -76,6 +76,13 @@ class FootpadParams:
       1.2-2.5 for soft polyurethane on metal (medium confidence on the form, low on the
       numbers; default the middle, 1.85); tau_s has no direct source: 0.15-0.5 MPa (default
       0.3 MPa) gives mu 1.0-1.7 at 0.1 MPa.
+    static_friction_ratio: for the `stick_slip` effect, static over kinetic friction of the
+      pad's rubber on the plate: a stuck element holds up to this times its (kinetic)
+      coefficient before it breaks away. Elastomers on hard surfaces hold more than they
+      slide with (static friction from the contact's bond population growing while stuck,
+      Kaiser, Savio & Bactavatchalou, Lubricants 12:250, 2024); for soft polyurethane on
+      metal 1.0-1.3 (low confidence, no measurement for Vytaflex 20); default the middle,
+      1.15.
     stiffness_profile: "bonded_plate" takes each element's spring rates from the finite-element
       block under a rigid plate stuck to its face, moved along x, y and z in turn (its nodal
       reactions split by tributary area, `sim.footpad.layer.plate_stiffness`): stiffer in the middle
@@ -105,6 +112,7 @@ class FootpadParams:
                                                      "[0.01, 1000]", length=(4, 4))
   friction_mu0: float = setting(1.85, "[1.2, 2.5]")
   friction_shear_strength: float = setting(0.3e6, "[0.15e6, 0.5e6]", "Pa")
+  static_friction_ratio: float = setting(1.15, "[1.0, 2.0]")
   stiffness_profile: Literal["bonded_plate", "uniform"] = "bonded_plate"
 
   @property

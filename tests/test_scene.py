@@ -180,3 +180,42 @@ def test_pressure_friction_sets_each_element_and_bounds_the_shear():
   assert ratio.max() > params.friction  # the Coulomb coefficient is not the one in force
   with pytest.raises(ValueError, match="pressure_friction together with friction"):
     footpad.simulate(dataclasses.replace(scene, effects=("pressure_friction",)))
+
+
+# a flat 2 x 2 pad dragged 0.3 mm deep: every element slides at the Coulomb limit
+SLIDER = footpad.FootpadScene(
+    paths=("x_stroke",), z_levels=(0.0003,), effects=("friction", "stick_slip"),
+    params=model_lib.FootpadParams(grid=(2, 2), crown_radius=float("inf")))
+
+
+def slider(ratio):
+  params = dataclasses.replace(SLIDER.params, static_friction_ratio=ratio)
+  rec, _ = footpad.simulate(dataclasses.replace(SLIDER, params=params))
+  f = rec.element_force
+  held = (rec.phase == 1) & (f[:, 2] > 0.5 * f[rec.phase == 1, 2].max())
+  return rec, np.max(np.abs(f[held, 0]) / f[held, 2])
+
+
+def test_stick_slip_breaks_away_at_the_static_limit_and_slides_at_the_kinetic():
+  mu = SLIDER.params.friction
+  plain, peak1 = slider(1.0)
+  assert peak1 == pytest.approx(mu, rel=2e-3)  # equal coefficients: Coulomb, slides at mu
+  for ratio in (1.15, 1.3):
+    rec, peak = slider(ratio)
+    # a stuck element holds up to the static limit (broken away at SLIDING of it), not past
+    assert footpad.SLIDING * ratio * mu * 0.995 <= peak <= ratio * mu
+    assert rec.slip[rec.phase == 1].mean() < 0.5 * plain.slip[plain.phase == 1].mean()
+
+
+def test_stick_slip_at_ratio_one_is_identical_to_plain_friction():
+  for effects in (("friction",), ("friction", "pressure_friction", "viscoelastic")):
+    scene = dataclasses.replace(SLIDER, effects=effects, params=SLIDER.params)
+    with_state = dataclasses.replace(scene, effects=effects + ("stick_slip",),
+                                     params=dataclasses.replace(scene.params,
+                                                                static_friction_ratio=1.0))
+    a, _ = footpad.simulate(scene)
+    b, _ = footpad.simulate(with_state)
+    assert a.pressure.tobytes() == b.pressure.tobytes()
+    assert a.wrench.tobytes() == b.wrench.tobytes()
+  with pytest.raises(ValueError, match="stick_slip together with friction"):
+    footpad.simulate(dataclasses.replace(SLIDER, effects=("stick_slip",)))

@@ -17,7 +17,15 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "coefficient follows its pressure under the press to the episode's depth, in "
            "place of the one Coulomb coefficient (FootpadParams.friction_mu0 1.2-2.5, "
            "friction_shear_strength 0.15-0.5 MPa, both ranges of low confidence). Needs "
-           "`friction`. Static and kinetic friction stay equal (stick-slip is not modelled)."),
+           "`friction`."),
+    Effect("stick_slip", Kind.MODEL,
+           "Static friction above kinetic: a stuck element holds up to "
+           "FootpadParams.static_friction_ratio times its coefficient (default 1.15, range "
+           "1.0-1.3, low confidence), breaks away there and slides at the kinetic coefficient "
+           "until it stops or turns over the plate, then sticks again (a Karnopp-style state "
+           "per element, updated every step). A history effect: after a reversal every "
+           "element must build its shear past the static limit again. Needs `friction`; "
+           "costs a Python step loop in place of MuJoCo's rollout."),
     Effect("viscoelastic", Kind.MODEL,
            "Stress relaxation of the polyurethane as a two-term Prony series per element and "
            "axis (FootpadParams.prony: fast g1 0.05-0.2 at tau1 0.1-2 s, slow g2 0.03-0.15 at "

@@ -11,7 +11,8 @@ LS_PATHS = ("z_press", "x_stroke", "y_stroke")  # the linear fit's data (Sec. II
 TEST_PATHS = ("test_path_1", "test_path_2")
 # Every effect of the paper's bench whose magnitude has a stated source or range (p_delta has
 # no free parameter), ranged ones at their nominal values (`footpad_envelope` spans them).
-DEFAULT_EFFECTS = ("friction", "pressure_friction", "viscoelastic", "p_delta", "hysteresis",
+DEFAULT_EFFECTS = ("friction", "pressure_friction", "stick_slip", "viscoelastic", "p_delta",
+                   "hysteresis",
                    "thermal_drift", "sensor_noise", "gain_offset_spread", "adc_quantisation",
                    "adc_saturation", "ft_noise")
 QUICK_Z_LEVELS = (0.0005, 0.001, 0.0015)

@@ -87,9 +87,10 @@ class FootpadScene:
     yield all(0.0 <= z <= lim for z in self.z_levels), "z_levels", strain, self.z_levels
     yield (self.press_depth is None or self.press_depth <= lim, "press_depth",
            f"(0, {lim:.4g}] m or none", self.press_depth)
-    yield ("pressure_friction" not in self.effects or "friction" in self.effects, "effects",
-           "pressure_friction together with friction (it sets the frictional contact's "
-           "coefficient)", self.effects)
+    for name in ("pressure_friction", "stick_slip"):
+      yield (name not in self.effects or "friction" in self.effects, "effects",
+             f"{name} together with friction (it sets the frictional contact's "
+             f"coefficient)", self.effects)
 
   def validate(self) -> None:
     """Raise ValueError naming the first setting outside its allowed range (and DataError
@@ -192,8 +193,11 @@ REACH_SHARE = 0.05
 REACH_FLOOR = 25e-6
 
 
-def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Episode):
-  """Rolls one episode out from rest; returns (qpos (T, nq), sensordata (T, ns), seconds).
+def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Episode,
+                 stick: Optional["StickSlip"] = None):
+  """Rolls one episode out from rest; returns (qpos (T, nq), sensordata (T, ns), slip (T,) or
+  None, seconds). With `stick` the episode steps in Python, the tips' friction following each
+  element's stick-slip state, and slip is the share of loaded elements sliding.
 
   Raises SimulationError if the physics diverged or the CNC did not reach its commands."""
   t0 = time.perf_counter()
@@ -201,14 +205,18 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
   data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
   data.ctrl[:] = ep.target[0]
   mujoco.mj_forward(model, data)
-  spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-  state0 = np.empty(mujoco.mj_stateSize(model, spec))
-  mujoco.mj_getState(model, data, state0, spec)
-  state, sens = mujoco.rollout.rollout(model, data, state0, ep.target[None])
+  slip = None
+  if stick is None:
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state0, spec)
+    state, sens = mujoco.rollout.rollout(model, data, state0, ep.target[None])
+    times, qpos, sens = state[0, :, 0], state[0, :, 1:1 + model.nq], sens[0]
+  else:
+    times, qpos, sens, slip = stick.roll(model, data, ep.target)
   where = f"footpad {ep.path} at z={ep.z_level * 1e3:.2f} mm"
-  qpos = state[0, :, 1:1 + model.nq]
   physics.check(data, where, "lower the indentation (z_levels) or feed, or params.timestep",
-                times=state[0, :, 0], values=(qpos, sens))
+                times=times, values=(qpos, sens))
   cnc = qpos[:, model_lib.cnc_qpos_index(model)]
   held = ep.phase == 1
   if held.any():
@@ -221,7 +229,70 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
           f"(its servo yields to the pad): raise params.cnc_kp (now "
           f"{model.actuator_gainprm[0, 0]:g} N/m), or lower the indentation or the rubber's "
           f"modulus")
-  return qpos, sens[0], time.perf_counter() - t0
+  return qpos, sens, slip, time.perf_counter() - t0
+
+
+# a sliding element sticks again when its speed over the plate falls below this (m/s) or
+# turns: far above a stuck contact's creep (< 0.03 mm/s at impratio 100, measured), far
+# below the CNC's 5 mm/s feed
+STICK_SPEED = 2e-4
+
+
+@dataclasses.dataclass(frozen=True)
+class StickSlip:
+  """The `stick_slip` effect's per-element state machine for one model.
+
+  Attributes:
+    tips: (E,) the tips' geom ids; their friction is set every step.
+    element_of: (ngeom,) each geom's element index, -1 for geoms that are not tips.
+    kinetic: (E,) each element's kinetic coefficient.
+    ratio: static over kinetic coefficient.
+  """
+  tips: np.ndarray
+  element_of: np.ndarray
+  kinetic: np.ndarray
+  ratio: float
+
+  def roll(self, model: mujoco.MjModel, data: mujoco.MjData, target: np.ndarray):
+    """Steps `target` (T, 3) CNC commands from data's state; returns times (T,), qpos (T, nq),
+    sensordata (T, ns) after each step (as `mujoco.rollout` records them) and the share of
+    loaded elements sliding (T,)."""
+    n = len(target)
+    times, slip = np.empty(n), np.zeros(n)
+    qpos, sens = np.empty((n, model.nq)), np.empty((n, model.nsensordata))
+    stuck = np.ones(len(self.tips), bool)
+    velocity = np.zeros((len(self.tips), 2))
+    static = self.ratio * self.kinetic
+    model.geom_friction[self.tips, 0] = static
+    for t in range(n):
+      data.ctrl[:] = target[t]
+      mujoco.mj_step(model, data)
+      times[t] = data.time
+      qpos[t] = data.qpos
+      sens[t] = data.sensordata
+      nc = data.ncon
+      touching = np.zeros(len(self.tips), bool)
+      if nc:
+        contact = data.contact
+        el = self.element_of[contact.geom[:nc].max(axis=1)]
+        adr = contact.efc_address[:nc]
+        fn = data.efc_force[adr]
+        loaded = (el >= 0) & (fn > LOADED)
+        el, adr, fn = el[loaded], adr[loaded], fn[loaded]
+        ft = np.hypot(data.efc_force[adr + 1], data.efc_force[adr + 2])
+        vx, vy = data.efc_vel[adr + 1], data.efc_vel[adr + 2]
+        touching[el] = True
+        was_stuck = stuck[el]
+        breaks = was_stuck & (ft >= SLIDING * static[el] * fn)
+        halts = ~was_stuck & ((np.hypot(vx, vy) < STICK_SPEED)
+                              | (vx * velocity[el, 0] + vy * velocity[el, 1] < 0))
+        stuck[el[breaks]] = False
+        stuck[el[halts]] = True
+        velocity[el, 0], velocity[el, 1] = vx, vy
+        slip[t] = np.count_nonzero(~stuck[el]) / len(el) if len(el) else 0.0
+      stuck |= ~touching  # an element that lifts off touches down stuck
+      model.geom_friction[self.tips, 0] = np.where(stuck, static, self.kinetic)
+    return times, qpos, sens, slip
 
 
 # an element whose shear is within this share of its friction limit is taken as sliding:
@@ -258,9 +329,11 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   eps = episodes(scene, kernel)
   threads = threads or min(os.cpu_count() or 1, len(eps))
   per_element = "pressure_friction" in effects
+  stick_slip = "stick_slip" in effects
   # each thread its own model when episodes set their own friction coefficients
-  models = [copy.copy(model) if per_element else model for _ in range(threads)]
-  if per_element:
+  own = per_element or stick_slip
+  models = [copy.copy(model) if own else model for _ in range(threads)]
+  if own:
     for m in models:  # the tip's coefficient decides (MuJoCo takes the larger of the two)
       m.geom_friction[m.geom("plate").id, 0] = 0.0
   tips = [model.geom(f"tip{e}").id for e in range(scene.params.num_elements)]
@@ -279,13 +352,20 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     couples = layer.couple_kernel(scene.params, scene.kernel)
     gc = couples.reshape(len(couples), -1).T
 
+  element_of = np.full(model.ngeom, -1)
+  element_of[tips] = np.arange(len(tips))
+
   def work(i: int):
     slot = free.pop()
     m = models[slot]
     try:
-      if per_element:
-        m.geom_friction[tips, 0] = friction[eps[i].z_level]
-      qpos, sens, physics_s = _run_episode(m, datas[slot], eps[i])
+      kinetic = friction[eps[i].z_level] if per_element else \
+          np.full(len(tips), scene.params.friction)
+      if own:
+        m.geom_friction[tips, 0] = kinetic
+      stick = StickSlip(np.array(tips), element_of, kinetic,
+                        scene.params.static_friction_ratio) if stick_slip else None
+      qpos, sens, state_slip, physics_s = _run_episode(m, datas[slot], eps[i], stick)
       mu = model_lib.contact_friction(m)
     finally:
       free.append(slot)
@@ -294,7 +374,8 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     pressure = forces.reshape(len(forces), -1) @ g
     if gc is not None:
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
-    slip = slip_share(forces, mu) if "friction" in effects else np.zeros(len(forces))
+    slip = state_slip if state_slip is not None else \
+        slip_share(forces, mu) if "friction" in effects else np.zeros(len(forces))
     chain = time.perf_counter() - t
     return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics_s,
                chain)
