@@ -50,3 +50,41 @@ def test_sensitivity_recovers_the_shares_of_a_known_linear_response():
   assert shares[names[0]] == pytest.approx(0.8, abs=0.01)
   assert shares[names[6]] == pytest.approx(0.2, abs=0.01)
   assert r2 == pytest.approx(1.0)
+
+
+def synthetic(point: dict) -> dict:
+  """A design's metrics as known functions of its drawn values: shear R2 set by the
+  hysteresis, the linear stroke fit's NRMSE by the static friction ratio."""
+  v = point["values"]
+  hyst = v["adc.hysteresis"] / 0.012
+  ratio = (v["params.static_friction_ratio"] - 1.0) / 0.3
+  axis = {"nrmse_pct": 1.0, "r2_pct": 99.0, "rmse": 1.0, "median_pct": 1.0, "worst_pct": 1.0}
+  net = {"X": {**axis, "r2_pct": 95.0 - 30.0 * hyst}, "Y": {**axis, "r2_pct": 95.0 - 30.0 * hyst},
+         "Z": axis}
+  strokes = {"X": {**axis, "nrmse_pct": 3.0 + 6.0 * ratio}, "Y": {**axis, "nrmse_pct": 2.0},
+             "Z": axis}
+  return {"LS": net, "LSANN": net, "NN": net, "LS_train": strokes,
+          "POLY3_train": {ax: {**m, "nrmse_pct": 0.5 * m["nrmse_pct"]} for ax, m in strokes.items()},
+          "time_ratio": 0.5, "iteration_ratio": 0.5, "slip": 0.0}
+
+
+def test_the_report_finds_the_envelope_and_the_parameter_each_metric_follows(tmp_path,
+                                                                              monkeypatch):
+  from benchmarks import executors
+  from benchmarks.registry import Context
+  monkeypatch.setattr(envelope, "evaluate", synthetic)
+  ctx = Context(quick=True, seed=3, out=tmp_path, settings=envelope.Envelope(designs=16),
+                show_progress=False, executor=executors.ExecutorSpec("serial"))
+  out = envelope.run(ctx)
+  shear = [95.0 - 30.0 * d["values"]["adc.hysteresis"] / 0.012 for d in out["designs"]]
+  row = out["envelope"]["LSANN X r2_pct"]
+  assert (row["min"], row["median"], row["max"]) == pytest.approx(
+      (min(shear), np.median(shear), max(shear)))
+  assert row["paper_inside"] == (min(shear) <= row["paper"] <= max(shear))
+  (shear_name, shear_fit), (strokes_name, strokes_fit) = out["sensitivity"].items()
+  assert max(shear_fit["shares"], key=shear_fit["shares"].get) == "adc.hysteresis"
+  assert max(strokes_fit["shares"], key=strokes_fit["shares"].get) == \
+      "params.static_friction_ratio"
+  assert shear_fit["linear_fit_r2"] == pytest.approx(1.0)
+  x = out["stroke_fit_split"]["X"]
+  assert x["cubic"] == pytest.approx(0.5 * x["LS"])
