@@ -88,3 +88,36 @@ def test_the_report_finds_the_envelope_and_the_parameter_each_metric_follows(tmp
   assert shear_fit["linear_fit_r2"] == pytest.approx(1.0)
   x = out["stroke_fit_split"]["X"]
   assert x["cubic"] == pytest.approx(0.5 * x["LS"])
+
+
+# the ranged parameters that size a history effect (a reading that depends on the path the
+# load took): stick-slip, relaxation strengths, hysteresis, drift
+HISTORY = ("params.static_friction_ratio", "prony.g1", "prony.g2", "adc.hysteresis",
+           "adc.drift_offset", "adc.drift_gain")
+
+
+@pytest.fixture(scope="module")
+def corners():
+  """The quick protocol at the two corners of the sourced ranges: every history parameter at
+  its low end, then at its high end (the other parameters at their middles)."""
+  from sim.footpad import scene as scene_lib
+  base = protocol.base(True, 0)
+  out = []
+  for level in (0.0, 1.0 - 1e-12):
+    u = np.array([level if name in HISTORY else 0.5 for name in envelope.RANGES])
+    out.append(envelope.evaluate({"base": scene_lib.FootpadScene.config(base),
+                                  "values": envelope.design_values(u), "seeds": [1]}))
+  return out
+
+
+def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corners):
+  """The CI trend check of the envelope: the paper's shear R2 (Table I) lies inside the span
+  of the sourced ranges, above the corner with the most history, below the one with none."""
+  from benchmarks.footpad import table
+  least, most = corners
+  for m in ("LSANN", "NN"):
+    for ax in ("X", "Y"):
+      paper = table.PAPER_TABLE1[m][ax][2]
+      assert most[m][ax]["r2_pct"] < paper < least[m][ax]["r2_pct"], (m, ax)
+  for m in ("LS", "LSANN", "NN"):  # normal force stays estimated well at either corner
+    assert most[m]["Z"]["r2_pct"] > 99.0 and least[m]["Z"]["r2_pct"] > 99.0, m

@@ -218,10 +218,13 @@ def run(ctx) -> dict:
                 f"(--set designs=N); {len(rows)} finished")
       break
     shares, fit_r2 = sensitivity(units[done], target)
-    sensitivities[name] = {"shares": shares, "linear_fit_r2": fit_r2}
+    dof = len(rows) - len(RANGES) - 1
+    sensitivities[name] = {"shares": shares, "linear_fit_r2": fit_r2, "residual_dof": dof}
     ctx.print(f"\nsensitivity of the {name} (range {target.min():.2f}-{target.max():.2f} "
               f"over the designs): share of its variance per parameter (a linear fit over "
-              f"the designs explains {fit_r2:.0%})")
+              f"the designs explains {fit_r2:.0%}, {dof} residual degree(s) of freedom" +
+              ("; too few designs for the shares to be more than indicative: --set "
+               f"designs={len(RANGES) + 12} or more)" if dof < 10 else ")"))
     for param, share in sorted(shares.items(), key=lambda kv: -kv[1]):
       ctx.print(f"  {param:32s} {share:6.1%}")
   ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
