@@ -9,9 +9,10 @@ medians; per-seed numbers go to metrics.json, fitted estimators to DIR/estimator
 
 Known gap (measured): at the sourced nominal values of every effect (the protocol's default)
 the networks still report simulated shear better than the paper (quick: test R2 93.8-96.7 %
-against the paper's 72-84 %); the paper lies inside the envelope of the sourced ranges
-(`footpad_envelope`), whose shear error the history effects carry: hysteresis, drift,
-relaxation and stick-slip, which no calibration of the counts can learn. The linear fit on
+against the paper's 72-84 %); the paper's shear R2 lies inside the envelope of the sourced
+ranges but for LSANN's Y (`footpad_envelope`, paper scale), whose shear error the history
+effects carry (the dies' offset drift most, then relaxation, friction and hysteresis), which
+no calibration of the counts can learn. The linear fit on
 the plain strokes stays better than the paper's (Y/X NRMSE 3.0/4.0 % against 5.72/9.63 %;
 of it, a static nonlinearity a cubic removes and history, measured in `footpad_envelope`).
 """
