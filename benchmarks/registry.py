@@ -14,6 +14,7 @@ import importlib
 import pathlib
 import pkgutil
 import sys
+import time
 from typing import Any, Callable, Mapping, Optional
 
 from models import errors
@@ -36,6 +37,8 @@ class Context:
     use_cache: load recordings simulated before.
     show_progress: draw progress bars.
     executor: where sweeps run their points (`benchmarks.executors.ExecutorSpec`).
+    lines: what `print` printed, in order (the report's text for DIR/table.md).
+    benchmark: the registered name the run was started by.
   """
   quick: bool
   seed: int
@@ -45,6 +48,13 @@ class Context:
   use_cache: bool = True
   show_progress: bool = True
   executor: Any = None
+  lines: list = dataclasses.field(default_factory=list)
+  benchmark: str = ""
+
+  @property
+  def name(self) -> str:
+    """The benchmark's name for titles and figures (its folder's when not given)."""
+    return self.benchmark or self.out.name
 
   def __post_init__(self):
     if self.executor is None:
@@ -52,24 +62,31 @@ class Context:
       object.__setattr__(self, "executor", executors.ExecutorSpec())
 
   def print(self, *args) -> None:
-    print(*args, flush=True)
+    """Prints a line of the report and keeps it for DIR/table.md."""
+    text = " ".join(str(a) for a in args)
+    self.lines.append(text)
+    print(text, flush=True)
 
   def progress(self, label: str) -> Optional[Progress]:
-    """A progress callback for library code: a tqdm bar if installed, else a status line."""
+    """A progress callback for library code: a bar on a terminal; piped or in CI, one line
+    when the stage ends (its count and seconds), so logs stay readable."""
     if not self.show_progress:
       return None
-    try:
-      from tqdm import tqdm
-    except ImportError:
+    stream = sys.stderr
+    if not (hasattr(stream, "isatty") and stream.isatty()):
+      t0 = time.perf_counter()
+
       def line(done: int, total: int) -> None:
-        end = "\n" if done == total else ""
-        print(f"\r{label}: {done}/{total}", end=end, file=sys.stderr, flush=True)
+        if done == total:
+          print(f"{label}: {total} done in {time.perf_counter() - t0:.1f} s", file=stream,
+                flush=True)
       return line
+    from tqdm import tqdm
     bar = {}
 
     def update(done: int, total: int) -> None:
       if "b" not in bar:
-        bar["b"] = tqdm(total=total, desc=label, file=sys.stderr, leave=False)
+        bar["b"] = tqdm(total=total, desc=label, file=stream, leave=False)
       bar["b"].update(done - bar["b"].n)
       if done == total:
         bar["b"].close()

@@ -1,7 +1,9 @@
 """Command line: python -m benchmarks.run NAME [--quick] [--seed N] [--out DIR] [--set k=v ...]
 
-Runs a registered benchmark (`benchmarks.registry`) and writes what it returns to
-DIR/metrics.json next to `benchmark`, `seed`, `settings` and `wall_seconds`.
+Runs a registered benchmark (`benchmarks.registry`) and fills its results folder (default
+results/NAME, results/NAME-quick with --quick; see `benchmarks.outputs`): manifest.json,
+metrics.json, metrics.csv, table.md, and the benchmark's predictions and figures.
+`--compare DIR` prints the new run's metrics beside those of the run in DIR.
 `python -m benchmarks.run NAME --help` lists the keys --set takes for that benchmark.
 """
 
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
+import shlex
 import sys
 import time
 import traceback
@@ -47,7 +50,11 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                            "frames): finishes in seconds to minutes")
   parser.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
   parser.add_argument("--out", type=pathlib.Path, default=None,
-                      help="results folder (default results/NAME)")
+                      help="results folder (default results/NAME, or results/NAME-quick "
+                           "with --quick, so a quick run never overwrites a full one)")
+  parser.add_argument("--compare", type=pathlib.Path, default=None, metavar="DIR",
+                      help="print this run's metrics beside those of an earlier run's "
+                           "results folder")
   parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                       help="change a setting, e.g. params.friction=0.8, adc.vref=5, "
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
@@ -156,22 +163,28 @@ def _main(argv: Optional[list[str]]) -> int:
     parser.error(f"--workers {args.workers} is out of range: allowed 1 to 1024")
   if args.address and args.executor != "dask":
     parser.error("--address joins a Dask scheduler: add --executor dask")
-  out = args.out or pathlib.Path("results") / args.name
+  out = args.out or pathlib.Path("results") / (args.name + ("-quick" if args.quick else ""))
+  earlier = None
+  if args.compare is not None:  # read before the run: a mistake costs no simulation
+    earlier = outputs.read_metric_rows(args.compare / "metrics.csv")
   lock = outputs.claim(out)  # before any simulation: a run that cannot write does not start
   try:
-    return _run(bench, args, applied, overrides, out)
+    return _run(bench, args, applied, overrides, out, earlier,
+                sys.argv[1:] if argv is None else list(argv))
   finally:
     lock.release()
 
 
-def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path) -> int:
+def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path,
+         earlier: Optional[list[dict]], argv: list[str]) -> int:
   from sim import cache
   spec = executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
                                 args.tls_cert, args.tls_key)
   ctx = registry.Context(args.quick, args.seed, out, applied, overrides, not args.no_cache,
-                         not args.no_progress, spec)
+                         not args.no_progress, spec, benchmark=args.name)
   for folder in (cache.cache_dir(), out):  # what killed runs left half-written
     cache.clean_orphans(folder)
+  started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
   t0 = time.perf_counter()
   try:
     result = bench.run(ctx)
@@ -183,11 +196,36 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
     return 130
   except Exception:  # not the user's mistake: a short message and the saved traceback
     return _internal_error(out / "traceback.txt")
+  wall = time.perf_counter() - t0
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
-             "settings": overrides, "wall_seconds": time.perf_counter() - t0, **result}
-  files.write_text(out / "metrics.json",
-                   files.json_text(metrics, indent=1, sort_keys=True, default=str))
-  print(f"wrote {out / 'metrics.json'}")
+             "settings": overrides, "wall_seconds": wall, **result}
+  text = files.json_text(metrics, indent=1, sort_keys=True, default=str)
+  files.write_text(out / "metrics.json", text)
+  rows = outputs.metric_rows(files.from_json(text))  # arrays as lists, as the file has them
+  files.write_text(out / "metrics.csv", outputs.csv_text(rows))
+  command = "python -m benchmarks.run " + shlex.join(argv)
+  files.write_text(out / outputs.TABLE, f"# {args.name}\n\n{bench.description}\n\n"
+                   f"`{command}` (seed {args.seed})\n\n```\n" + "\n".join(ctx.lines) + "\n```\n")
+  from sim import recording, settings
+  resolved = {k.name: _format(k.default) for k in settings.keys(applied)}
+  manifest = {
+      "benchmark": args.name, "command": command, "seed": args.seed, "quick": args.quick,
+      "overrides": overrides, "settings": resolved,
+      "effects": list(getattr(applied, "effects", ()) or ()),
+      "versions": outputs.versions(), "git_commit": outputs.git_commit(),
+      "recordings": recording.used_stems(), "cache_dir": str(cache.cache_dir()),
+      "started": started, "wall_seconds": wall,
+      "rerun": "the command above at git_commit; with the same versions it gives the same "
+               "bytes (every draw follows the seed)",
+      "files": sorted(str(p.relative_to(out)) for p in out.rglob("*")
+                      if p.is_file() and not p.name.startswith("."))}
+  files.write_text(out / "manifest.json", files.json_text(manifest, indent=1, default=str))
+  if earlier is not None:
+    print(f"\ncompared with {args.compare}:")
+    print("\n".join(outputs.compare_lines(earlier, rows)))
+  print(f"results in {out}/: table.md, metrics.csv, metrics.json, manifest.json"
+        + (", predictions.npz" if (out / "predictions.npz").exists() else "")
+        + (", figures/" if (out / "figures").is_dir() else ""))
   return 0
 
 

@@ -189,6 +189,15 @@ class Timing:
   threads: int
 
 
+_USED: list[str] = []  # cache stems asked for by this process, for a run's manifest
+
+
+def used_stems() -> list[str]:
+  """The cache stems (`<rig>-<key>`) of the recordings this process has asked `generate`
+  for, in order, without repeats: what a run's manifest names as its data."""
+  return list(dict.fromkeys(_USED))
+
+
 def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recording, Timing]],
              use_cache: bool = True) -> tuple[Recording, Optional[Timing]]:
   """The recording of a scene, from the cache when an identical request was made before.
@@ -201,6 +210,7 @@ def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recordi
     The recording and the timing of its simulation (None when loaded from the cache).
   """
   stem = cache.cache_dir() / "recordings" / f"{rig}-{cache.content_key(key)}"
+  _USED.append(stem.name)
   if use_cache and stem.with_suffix(".npz").exists() and stem.with_suffix(".json").exists():
     try:
       return Recording.load(stem), None

@@ -55,7 +55,21 @@ def table(tmp_path_factory):
   from sim.footpad import protocol
   ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"),
                 settings=protocol.base(quick=True, seed=0), show_progress=False)
-  return footpad_table.run_table(ctx, ("asterisk",), seeds=1)["results"]
+  results = footpad_table.run_table(ctx, ("asterisk",), seeds=1)["results"]
+  return {**results, "out": ctx.out}
+
+
+def test_predictions_file_reproduces_the_tables_errors(table):
+  from calibrate import metrics
+  with np.load(table["out"] / "predictions.npz") as z:
+    truth, axes = z["truth"].astype(float), tuple(z["axes"])
+    assert str(z["unit"]) == "N" and z["time"].shape == (len(truth),)
+    for m in footpad_table.METHODS:
+      got = metrics.summary(z[f"pred_{m}"].astype(float), truth, axes)
+      for ax in axes:  # float32 in the file: agreement to its precision
+        assert got[ax]["rmse"] == pytest.approx(table[m][ax]["rmse"], rel=1e-4), (m, ax)
+  for name in ("force_over_time", "strokes"):
+    assert (table["out"] / "figures" / f"{name}.png").stat().st_size > 10_000
 
 
 def test_z_is_estimated_far_better_than_shear(table):

@@ -104,12 +104,10 @@ def _predict_cost(est, counts) -> float:
 
 def front(points: list[dict]) -> list[dict]:
   """The Pareto front: points no faster point beats in error, by training time."""
-  out, best = [], np.inf
-  for p in sorted(points, key=lambda p: (p["seconds"], p["error"])):
-    if p["error"] < best:
-      out.append(p)
-      best = p["error"]
-  return out
+  from benchmarks import figures
+  idx = figures.pareto(np.array([p["seconds"] for p in points], float),
+                       np.array([p["error"] for p in points], float))
+  return [points[i] for i in idx]
 
 
 def stops_paying(front_points: list[dict]) -> dict | None:
@@ -190,4 +188,14 @@ def run(ctx) -> dict:
     ctx.print(f"  slowest point: {slowest['calibrator']} {slowest['seconds']:.2f} s, error "
               f"{slowest['error']:.3f}; JIT compilation is not counted (up to "
               f"{max(p['compile_seconds'] for p in r['points']):.2f} s per network)")
+  from benchmarks import figures
+  for rig, r in out.items():
+    kinds = {}
+    for p in r["points"]:
+      kinds.setdefault(p.get("kind") or p["calibrator"].rstrip("0123456789"), []).append(p)
+    figures.save(figures.front({k: (np.array([p["seconds"] for p in v]),
+                                    np.array([p["error"] for p in v])) for k, v in kinds.items()},
+                               error_label=r["metric"], benchmark=ctx.name, seed=ctx.seed,
+                               what=f"{rig}: test error against training time"),
+                 ctx.out, f"accuracy_vs_time_{rig}")
   return {"rigs": out, "paying_rule": f"a doubling of time lowers the error by >= {PAYING:.0%}"}

@@ -112,6 +112,7 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
                                       for ax in AXES} for m in ("LSANN", "NN")},
   }
   _print_table(ctx, results, comparison, n_seeds)
+  _predictions_and_figures(ctx, recs["train"], test, fitted)
   general = _generalisation(ctx, fitted)
   blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
   return {"results": results, "LS_train": ls_train, "per_seed": per_seed,
@@ -121,6 +122,40 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
                     "training_minutes": PAPER_MINUTES, "iteration_ratio": 59.0 / 144.5},
           "samples": {"ls_train": len(strokes), "nn_train": len(nn_train), "test": len(test)},
           "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
+
+
+def _predictions_and_figures(ctx, train, test, fitted: dict) -> None:
+  """DIR/predictions.npz (the test truth, each method's prediction from the first seed, and
+  the spread of the networks' seeds per sample, float32) and the paper's Figs. 5 and 7."""
+  from benchmarks import figures, outputs
+  truth = test.wrench[:, :3]
+  preds = {m: fitted[m][0].predict(test.counts) for m in METHODS}
+  spread = {f"spread_{m}": np.std([e.predict(test.counts) for e in fitted[m]], axis=0)
+            .astype(np.float32) for m in ("LSANN", "NN")}
+  dt = float(np.median(np.diff(train.time[:100])))
+  clock = np.arange(len(test)) * dt  # the test samples end to end, s
+  outputs.write_predictions(ctx.out, truth.astype(np.float32),
+                            {m: p.astype(np.float32) for m, p in preds.items()}, AXES, "N",
+                            time=clock, episode=test.episode, **spread)
+  name = ctx.name
+  figures.save(figures.over_time(clock, truth, preds, AXES, "N", benchmark=name, seed=ctx.seed,
+                                 what="predicted and measured force on Testing Paths 1 and 2 "
+                                      "(LSANN paper Fig. 7; networks: first seed)"),
+               ctx.out, "force_over_time")
+  segments = {}
+  for path, label in (("z_press", "Z presses"), ("x_stroke", "X strokes"),
+                      ("y_stroke", "Y strokes")):
+    part = train.paths(path)
+    if not len(part):
+      continue
+    levels = np.unique(part.z_level)
+    level = levels[np.argmin(abs(levels - np.median(levels)))]
+    ep = part.episode[np.flatnonzero(part.z_level == level)[0]]
+    one = part.select(part.episode == ep)
+    segments[f"{label} at {level * 1e3:.1f} mm"] = (one.time, one.counts, one.wrench[:, :3])
+  if segments:
+    figures.save(figures.strokes(segments, [f"die {i + 1}" for i in range(train.counts.shape[1])],
+                                 AXES, benchmark=name, seed=ctx.seed), ctx.out, "strokes")
 
 
 def _generalisation(ctx, fitted: dict) -> dict:

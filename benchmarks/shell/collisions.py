@@ -111,5 +111,16 @@ def run(ctx) -> dict:
             f"mu_s x weight {out['feet_friction_limit']:.3f}), per stride from "
             f"{push_lo:+.3f} to {push_hi:+.3f} N (medians); paper -0.5 N spike, then -0.5 to "
             "-0.2 N at the stride frequency")
-  ctx.print(f"traces: {ctx.out / 'course.npz'}")
+  from benchmarks import figures
+  groups = {f"F{ax}": {"shell (calibrated)": f[:, i], "walls' contact": r.contact[:, i]}
+            for i, ax in enumerate("xyz")}
+  groups["yaw"] = {"robot": yaw}
+  spans = [(float(r.time[m[k]][0]), float(r.time[m[k]][-1]), label)
+           for k, label in (("corner", "II corner"), ("along", "III along"),
+                            ("pushing", "IV pushing")) if m[k].any()]
+  figures.save(figures.traces(r.time, groups, {**dict.fromkeys(groups, "N"), "yaw": "deg"},
+                              benchmark=ctx.name, seed=ctx.seed, spans=spans,
+                              what="shell force along the course (shell paper Fig. 11)"),
+               ctx.out, "course")
+  ctx.print(f"traces: {ctx.out / 'course.npz'}, figure: {ctx.out / 'figures' / 'course.png'}")
   return {"results": out, "paper": PAPER}

@@ -53,13 +53,30 @@ def run(ctx) -> dict:
   counts, gravity = turn.simulate(base, ctx.seed)
   ctx.print(f"{'calibration loads':26s} {'mean mass g':>12s} {'mean angle deg':>15s} "
             f"{'|A_z| legs up m/s2':>19s}")
+  shell_acc = {}
   for name, bias in (("every direction", 0.0), (f"mostly down (bias {BIASED})", BIASED)):
     board = dataclasses.replace(ctx.settings, downward_bias=bias)
     est = shell.calibrated(ctx, board).estimator
-    res = compare(est.predict(counts)[:, :3], gravity)
+    force = est.predict(counts)[:, :3]
+    shell_acc[name] = -force / turn.PAYLOAD
+    res = compare(force, gravity)
     out[name] = res
     ctx.print(f"{name:26s} {res['mean_mass_g']:12.1f} {res['mean_angle_deg']:15.1f} "
               f"{res['inverted_az']:19.2f}")
   ctx.print(f"{'paper':26s} {PAPER['mean_mass_g']:12.1f} {PAPER['mean_angle_deg']:15.1f} "
-            f"{PAPER['inverted_az']:19.2f}   (accelerometer legs up: 9.81)")
+            f"{PAPER['inverted_az']:19.2f}   (accelerometer legs up: "
+            f"{res['accelerometer_inverted_az']:.2f}, the model's gravity)")
+  from benchmarks import figures
+  from sim.shell import scene as shell_scene
+  t = np.arange(len(gravity)) / shell_scene.FRAME_RATE
+  groups = {f"A_{ax}": {"accelerometer": -gravity[:, i],
+                        **{f"shell, {n}": a[:, i] for n, a in shell_acc.items()}}
+            for i, ax in enumerate("xyz")}
+  half = turn.TURN_SECONDS
+  figures.save(figures.traces(t, groups, dict.fromkeys(groups, "m/s^2"), benchmark=ctx.name,
+                              seed=ctx.seed, what="shell (50 g) against accelerometer while "
+                              "the robot turns (shell paper Fig. 8)",
+                              spans=[(0, half, "about y: A-E"), (half, 2 * half,
+                                                                 "about x: E-I")]),
+               ctx.out, "gravity_vectors")
   return {"results": out, "paper": PAPER}

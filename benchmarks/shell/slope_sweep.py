@@ -119,6 +119,27 @@ def _search(ctx, axes: dict, best: dict) -> dict:
           "objective": value, "iterations": int(res.state.iter_num), "seconds": seconds}
 
 
+def _heatmap(ctx, axes: dict, fom: np.ndarray, board_design: dict) -> None:
+  """figures/slope_sweep.png: the figure of merit over the first two swept axes (the best
+  over any further axes), the board's design marked."""
+  from benchmarks import figures
+  names = list(axes)
+  if len(names) < 2:
+    return
+  order = [np.argsort(axes[n]) for n in names[:2]]
+  values = fom if fom.ndim == 2 else np.nanmin(fom.reshape(fom.shape[:2] + (-1,)), axis=2)
+  values = values[np.ix_(*order)]
+  if not np.isfinite(values).any():
+    return
+  x, y = (np.sort(np.asarray(axes[n], float)) for n in names[:2])
+  further = f" (best over {', '.join(names[2:])})" if len(names) > 2 else ""
+  figures.save(figures.heatmap(x, y, values.T, xlabel=names[0], ylabel=names[1],
+                               label="mean calibrated median error (%)", benchmark=ctx.name,
+                               seed=ctx.seed, what="reflector slope sweep, static path" + further,
+                               mark=(board_design[names[0]], board_design[names[1]], "board")),
+               ctx.out, "slope_sweep")
+
+
 @register("reflector_slope_sweep", "shell design grid over reflector slopes (and any ShellParams "
           "number): rank, resolution, window, calibrated error; best design, gradient search",
           settings=sweep_settings, fixed=FIXED, tags=("shell", "design", "sweep"))
@@ -244,6 +265,7 @@ def run(ctx) -> dict:
   files.atomic_write(ctx.out / "sweep.npz", lambda f: np.savez(
       f, **{f"axis_{n}": np.array(v) for n, v in axes.items()}, **grid, resolution=res,
       rank=rank))
+  _heatmap(ctx, axes, grid["fom"], board_design)
   frames = 200_000
   poses = np.random.default_rng(ctx.seed).uniform(-1e-3, 1e-3, (frames, 6))
   times = []

@@ -62,6 +62,14 @@ def run(ctx) -> dict:
       f"{m:6.2f} [{PAPER_TABLE1[a][0]:5.1f}]" for m, a in zip(median, AXES)))
   ctx.print("worst % of range     " + " ".join(
       f"{w:6.2f} [{PAPER_TABLE1[a][1]:5.1f}]" for w, a in zip(worst, AXES)))
+  from benchmarks import figures, outputs
+  outputs.write_predictions(ctx.out, test.wrench, {"POLY": pred}, AXES, "N, N m",
+                            time=test.time)
+  units = ["N"] * 3 + ["N m"] * 3
+  figures.save(figures.scatter(test.wrench, {"POLY": pred}, AXES, units,
+                               benchmark=ctx.name, seed=ctx.seed,
+                               what="calibrated against true wrench on the test run "
+                                    "(shell paper Fig. 7)"), ctx.out, "predicted_vs_true")
   rng = np.ptp(test.wrench, axis=0) * shell.PRINT_UNITS
   ctx.print("test range (N, mN m) " + " ".join(
       f"{r:6.2f} [{PAPER_RANGE[a]:5.1f}]" for r, a in zip(rng, AXES)))

@@ -36,7 +36,8 @@ def simulate(board: shell.ShellScene, seed: int) -> tuple[np.ndarray, np.ndarray
   model = shell.compile_checked(loaded.spec(), "shell turn", loaded.params)
   data = mujoco.MjData(model)
   dt = model.opt.timestep
-  grav = gravity_sequence(int(round(TURN_SECONDS / dt)))
+  # the model's own gravity, whatever its magnitude (9.81 m/s^2 unless the spec says otherwise)
+  grav = gravity_sequence(int(round(TURN_SECONDS / dt)), float(np.linalg.norm(model.opt.gravity)))
   spf = shell.frame_steps(dt)
   shell.run_frames("shell turn", model, data, 1000, 1000)  # settle legs down, the mass on
 

@@ -1,0 +1,77 @@
+"""What a finished run leaves in its folder: the manifest reruns it, metrics.csv holds every
+number of metrics.json, table.md what was printed, and --compare reads an earlier run."""
+
+import json
+
+import pytest
+
+from benchmarks import outputs, run
+from models import files
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+  out = tmp_path_factory.mktemp("run") / "geometry"
+  assert run.main(["shell_geometry", "--quick", "--seed", "3", "--out", str(out),
+                   "--set", "slope_x=0.4"]) == 0
+  return out
+
+
+def test_the_folder_holds_manifest_metrics_csv_and_table(finished, capsys):
+  names = {p.name for p in finished.iterdir()}
+  assert {"manifest.json", "metrics.json", "metrics.csv", "table.md"} <= names
+  manifest = json.loads((finished / "manifest.json").read_text())
+  assert manifest["benchmark"] == "shell_geometry" and manifest["seed"] == 3
+  assert manifest["settings"]["slope_x"] == "0.4"  # resolved, the override applied
+  assert manifest["command"].endswith(f"--set slope_x=0.4")
+  assert {"python", "mujoco", "numpy", "jax"} <= set(manifest["versions"])
+  assert {"metrics.json", "metrics.csv", "table.md"} <= set(manifest["files"])
+
+
+def test_metrics_csv_holds_every_number_of_metrics_json(finished):
+  metrics = files.from_json((finished / "metrics.json").read_text())
+  rows = outputs.read_metric_rows(finished / "metrics.csv")
+  assert len(rows) == len(outputs.metric_rows(metrics))
+  by_metric = {(r["group"], r["metric"]): r["value"] for r in rows}
+  assert by_metric[("", "wall_seconds")] == metrics["wall_seconds"]
+
+
+def test_table_md_is_what_the_run_printed(tmp_path, capsys):
+  out = tmp_path / "g"
+  run.main(["shell_geometry", "--quick", "--out", str(out)])
+  printed = capsys.readouterr().out
+  table = (out / "table.md").read_text()
+  body = table.split("```\n")[1]
+  for line in body.splitlines():
+    assert line in printed
+
+
+def test_metric_rows_name_method_axis_and_metric():
+  rows = outputs.metric_rows({"results": {"LSANN": {"X": {"r2_pct": 90.0}}}, "per_seed": [
+      {"NN": {"Z": {"rmse": 1.5}}}], "flag": True, "name": "x"})
+  assert rows == [
+      {"group": "results", "method": "LSANN", "axis": "X", "metric": "r2_pct", "value": 90.0},
+      {"group": "per_seed/0", "method": "NN", "axis": "Z", "metric": "rmse", "value": 1.5}]
+
+
+def test_compare_prints_the_shared_metrics_side_by_side(finished, tmp_path, capsys):
+  out = tmp_path / "again"
+  assert run.main(["shell_geometry", "--quick", "--seed", "3", "--out", str(out),
+                   "--compare", str(finished)]) == 0
+  printed = capsys.readouterr().out
+  assert f"compared with {finished}" in printed
+  assert "earlier" in printed and "this run" in printed
+
+
+def test_compare_with_a_folder_that_is_no_run_is_one_line(tmp_path, capsys):
+  assert run.main(["shell_geometry", "--quick", "--out", str(tmp_path / "o"),
+                   "--compare", str(tmp_path / "nothing")]) == 2
+  err = capsys.readouterr().err.strip().splitlines()
+  assert len(err) == 1 and "--compare" in err[0] and "metrics.csv" in err[0]
+
+
+def test_a_quick_run_has_a_folder_apart_from_the_full_run(tmp_path, monkeypatch):
+  monkeypatch.chdir(tmp_path)
+  assert run.main(["shell_geometry", "--quick"]) == 0
+  assert (tmp_path / "results" / "shell_geometry-quick" / "metrics.json").exists()
+  assert not (tmp_path / "results" / "shell_geometry").exists()
