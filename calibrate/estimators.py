@@ -12,8 +12,9 @@ from __future__ import annotations
 import dataclasses
 import enum
 import pathlib
+import warnings
 import zipfile
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -28,43 +29,158 @@ class Kind(enum.Enum):
   NN = "NN"
 
 
+class OutOfRangeWarning(UserWarning):
+  """Inputs outside the range an estimator was fitted on: its output there is extrapolation."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Info:
+  """What an estimator was fitted on, saved with it.
+
+  Attributes:
+    inputs, outputs: names of the input channels (C) and the outputs (A).
+    input_units, output_units: their units ("counts", "N", "N m"...).
+    input_lo, input_hi: (C,) the training range of every input channel.
+    residual_sd: (A,) spread (standard deviation) of the residual on held-out validation
+      samples, output units: the estimator's own error, as measured when it was fitted.
+    samples: training samples.
+    data_sha256: SHA-256 of the training inputs and targets (float64 bytes).
+    settings: the method and its settings (JSON-able).
+  """
+  inputs: tuple[str, ...]
+  outputs: tuple[str, ...]
+  input_units: tuple[str, ...]
+  output_units: tuple[str, ...]
+  input_lo: np.ndarray
+  input_hi: np.ndarray
+  residual_sd: np.ndarray
+  samples: int
+  data_sha256: str
+  settings: dict
+
+  def to_json(self) -> dict:
+    return {"inputs": list(self.inputs), "outputs": list(self.outputs),
+            "input_units": list(self.input_units), "output_units": list(self.output_units),
+            "samples": self.samples, "data_sha256": self.data_sha256, "settings": self.settings}
+
+  def arrays(self) -> dict[str, np.ndarray]:
+    return {"info_input_lo": self.input_lo, "info_input_hi": self.input_hi,
+            "info_residual_sd": self.residual_sd}
+
+  @staticmethod
+  def from_saved(head: dict, arrays: dict[str, np.ndarray]) -> "Info":
+    info = Info(tuple(head["inputs"]), tuple(head["outputs"]), tuple(head["input_units"]),
+                tuple(head["output_units"]), arrays["info_input_lo"], arrays["info_input_hi"],
+                arrays["info_residual_sd"], int(head["samples"]), str(head["data_sha256"]),
+                dict(head["settings"]))
+    c, a = len(info.inputs), len(info.outputs)
+    if (len(info.input_units), info.input_lo.shape, info.input_hi.shape) != (c, (c,), (c,)) or \
+       (len(info.output_units), info.residual_sd.shape) != (a, (a,)):
+      raise ValueError("its names, units and ranges do not fit together")
+    return info
+
+
+def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
+  """SHA-256 of training data: the float64 bytes of inputs and targets, with their shapes."""
+  return files.array_digest({"inputs": np.asarray(counts, float),
+                             "targets": np.asarray(forces, float)})
+
+
 @dataclasses.dataclass(frozen=True)
 class Estimator:
-  """A fitted estimator: the linear stage and/or the network, and how it was trained."""
+  """A fitted estimator: the linear stage and/or the network, how it was trained, what it was
+  fitted on (`info`), and for an ensemble its members (the prediction is their mean)."""
   kind: Kind
   linear: Optional[linear.LinearFit] = None
   net: Optional[mlp.MLP] = None
   training: Optional[mlp.TrainResult] = None
+  info: Optional[Info] = None
+  members: tuple["Estimator", ...] = ()
 
-  def predict(self, counts: np.ndarray) -> np.ndarray:
-    """(N, A) forces, N, from (N, C) counts."""
+  @property
+  def n_inputs(self) -> int:
+    one = self.members[0] if self.members else self
+    return len(one.linear.mean) if one.linear is not None else one.net.w1.shape[1] - 1
+
+  def _predict_one(self, counts: np.ndarray) -> np.ndarray:
     if self.kind is Kind.NN:
       return self.net.predict(counts)
     f = self.linear.predict(counts)
     return f + self.net.predict(counts) if self.kind is Kind.LSANN else f
 
-  def save(self, path) -> None:
-    """Writes the arrays and settings to one .npz file, atomically, with the format tag and
-    a SHA-256 of the arrays that `load` checks."""
-    arrays = {}
+  def predict(self, counts: np.ndarray, return_std: bool = False):
+    """(N, A) forces (output units) from (N, C) counts.
+
+    Warns (`OutOfRangeWarning`, one warning naming the share of samples and the channels)
+    when inputs leave the range the estimator was fitted on. With `return_std`, also (N, A)
+    standard deviations: the members' spread per sample (an ensemble) combined with the
+    validation residual spread of `info` (sqrt of the sum of squares).
+    """
+    counts = linear.check_array(counts, "counts", self.n_inputs)
+    self._check_range(counts)
+    if self.members:
+      each = np.stack([m._predict_one(counts) for m in self.members])
+      mean, spread = each.mean(axis=0), each.std(axis=0)
+    else:
+      mean, spread = self._predict_one(counts), None
+    if not return_std:
+      return mean
+    sd = np.zeros_like(mean) if spread is None else spread
+    if self.info is not None:
+      sd = np.sqrt(sd ** 2 + self.info.residual_sd ** 2)
+    return mean, sd
+
+  def outside(self, counts: np.ndarray) -> np.ndarray:
+    """(N, C) True where an input lies outside the range the estimator was fitted on (all
+    False without `info`)."""
+    counts = np.asarray(counts, float)
+    if self.info is None:
+      return np.zeros(counts.shape, bool)
+    return (counts < self.info.input_lo) | (counts > self.info.input_hi)
+
+  def _check_range(self, counts: np.ndarray) -> None:
+    outside = self.outside(counts)
+    rows = outside.any(axis=1)
+    if rows.any():
+      names = [n for n, o in zip(self.info.inputs, outside.any(axis=0)) if o]
+      warnings.warn(f"{rows.mean():.1%} of the {len(counts)} samples have inputs outside the "
+                    f"range this estimator was fitted on ({', '.join(names)}): its output "
+                    f"there is extrapolation", OutOfRangeWarning, stacklevel=3)
+
+  def _arrays(self) -> tuple[dict, dict]:
+    arrays, meta = {}, {"kind": self.kind.value}
     if self.linear is not None:
       for f in ("mean", "scale", "coef", "bias"):
         arrays[f"linear_{f}"] = getattr(self.linear, f)
+      meta.update(rank=self.linear.rank, degree=self.linear.degree)
     if self.net is not None:
       arrays.update(net_w1=self.net.w1, net_w2=self.net.w2, net_x_lo=self.net.x_scale.lo,
                     net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
                     net_y_hi=self.net.y_scale.hi)
-    meta = {"kind": self.kind.value, "format": FORMAT, "version": VERSION,
-            "sha256": files.array_digest(arrays)}
-    if self.linear is not None:
-      meta.update(rank=self.linear.rank, degree=self.linear.degree)
+    if self.training is not None:
+      meta["stop"] = self.training.stop.name
+      meta["epochs"] = self.training.epochs
+    for k, m in enumerate(self.members):
+      sub, sub_meta = m._arrays()
+      arrays.update({f"m{k}_{name}": a for name, a in sub.items()})
+      meta.setdefault("members", []).append(sub_meta)
+    if self.info is not None:
+      arrays.update(self.info.arrays())
+      meta["info"] = self.info.to_json()
+    return arrays, meta
+
+  def save(self, path) -> None:
+    """Writes the arrays and settings to one .npz file, atomically, with the format tag,
+    version and a SHA-256 of the arrays that `load` checks."""
+    arrays, meta = self._arrays()
+    meta.update(format=FORMAT, version=VERSION, sha256=files.array_digest(arrays))
     files.atomic_write(pathlib.Path(path),
                        lambda f: np.savez(f, meta=files.json_text(meta), **arrays))
 
   @staticmethod
   def load(path) -> "Estimator":
-    """Reads a file `save` wrote, checked: format tag and version, checksum, shapes and
-    finiteness of every array.
+    """Reads a file `save` wrote, checked: format tag and version (a version this testbench
+    does not know is refused), checksum, shapes and finiteness of every array.
 
     Raises:
       errors.DataError naming the file and what is wrong with it.
@@ -77,38 +193,48 @@ class Estimator:
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
       raise errors.DataError(f"estimator {path}: cannot be read ({err})") from None
     files.check_header(meta, path, "estimator", FORMAT, VERSION, files.array_digest(arrays))
-    bad = [k for k, a in arrays.items() if not np.isfinite(a).all()]
+    bad = [k for k, a in arrays.items() if a.dtype.kind == "f" and not np.isfinite(a).all()]
     if bad:
       raise errors.DataError(f"estimator {path}: {', '.join(bad)} hold NaN or inf")
     try:
-      kind = Kind(meta["kind"])
-      lin = net = None
-      if "linear_coef" in arrays:
-        lin = linear.LinearFit(arrays["linear_mean"], arrays["linear_scale"],
-                               arrays["linear_coef"], arrays["linear_bias"], int(meta["rank"]),
-                               int(meta["degree"]))
-        c = len(lin.mean)
-        if lin.scale.shape != (c,) or lin.coef.shape[0] != c * lin.degree or \
-           lin.bias.shape != lin.coef.shape[1:]:
-          raise ValueError("the linear stage's arrays do not fit together")
-      if "net_w1" in arrays:
-        net = mlp.MLP(arrays["net_w1"], arrays["net_w2"],
-                      mlp.MinMax(arrays["net_x_lo"], arrays["net_x_hi"]),
-                      mlp.MinMax(arrays["net_y_lo"], arrays["net_y_hi"]))
-        h, inputs = net.w1.shape
-        if net.w2.shape[1] != h + 1 or net.x_scale.lo.shape != (inputs - 1,) or \
-           net.y_scale.lo.shape != (net.w2.shape[0],):
-          raise ValueError("the network's arrays do not fit together")
-      if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None):
-        raise ValueError(f"a {kind.value} estimator needs its "
-                         f"{'linear stage' if lin is None else 'network'}")
+      return _from_saved(meta, arrays)
     except (KeyError, ValueError, TypeError) as err:
       raise errors.DataError(f"estimator {path}: {err}") from None
-    return Estimator(kind, lin, net)
+
+
+def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
+  kind = Kind(meta["kind"])
+  info = Info.from_saved(meta["info"], arrays) if "info" in meta else None
+  if "members" in meta:
+    members = tuple(_from_saved(m, {k[len(f"m{i}_"):]: a for k, a in arrays.items()
+                                    if k.startswith(f"m{i}_")})
+                    for i, m in enumerate(meta["members"]))
+    return Estimator(kind, info=info, members=members)
+  lin = net = None
+  if "linear_coef" in arrays:
+    lin = linear.LinearFit(arrays["linear_mean"], arrays["linear_scale"],
+                           arrays["linear_coef"], arrays["linear_bias"], int(meta["rank"]),
+                           int(meta["degree"]))
+    c = len(lin.mean)
+    if lin.scale.shape != (c,) or lin.coef.shape[0] != c * lin.degree or \
+       lin.bias.shape != lin.coef.shape[1:]:
+      raise ValueError("the linear stage's arrays do not fit together")
+  if "net_w1" in arrays:
+    net = mlp.MLP(arrays["net_w1"], arrays["net_w2"],
+                  mlp.MinMax(arrays["net_x_lo"], arrays["net_x_hi"]),
+                  mlp.MinMax(arrays["net_y_lo"], arrays["net_y_hi"]))
+    h, inputs = net.w1.shape
+    if net.w2.shape[1] != h + 1 or net.x_scale.lo.shape != (inputs - 1,) or \
+       net.y_scale.lo.shape != (net.w2.shape[0],):
+      raise ValueError("the network's arrays do not fit together")
+  if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None):
+    raise ValueError(f"a {kind.value} estimator needs its "
+                     f"{'linear stage' if lin is None else 'network'}")
+  return Estimator(kind, lin, net, info=info)
 
 
 FORMAT = "testbench-estimator"
-VERSION = 2  # 1: no format tag or checksum
+VERSION = 3  # 1: no format tag or checksum; 2: no Info, no members
 
 
 def split_validation(n: int, fraction: float, seed: int, block: Optional[int] = None
@@ -141,7 +267,10 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         linear_fit: Optional[linear.LinearFit] = None, config: mlp.LMConfig = mlp.LMConfig(),
         val_fraction: float = 0.15, seed: int = 0, progress=None,
         degree: int = 3, snapshots: tuple[int, ...] = (),
-        val_block: Optional[int] = None) -> Estimator:
+        val_block: Optional[int] = None, ensemble: int = 1,
+        inputs: Optional[Sequence[str]] = None, outputs: Optional[Sequence[str]] = None,
+        input_units: Optional[Sequence[str]] = None,
+        output_units: Optional[Sequence[str]] = None) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -149,27 +278,69 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     counts, forces: (N, C) counts and (N, A) forces of the training data.
     linear_fit: for LSANN, the LS stage fitted beforehand (the paper fits it on the Z/X/Y
       strokes, the network on other paths); fitted on (counts, forces) when None.
-    config: network training settings.  val_fraction: share held out for validation stops.
+    config: network training settings.  val_fraction: share held out for validation stops
+      and for the residual spread of `Info` (LS and POLY are then fitted again on all).
     seed: integer for the validation split and the network's start point.
     degree: the polynomial degree of POLY (the shell paper's cubic: 3).
     snapshots: epoch caps to keep the best net at (`at_epoch_cap`).
     val_block: hold out contiguous blocks of this many samples for validation instead of
       single samples (`split_validation`).
+    ensemble: networks trained from this many seeds (spawned from `seed`); the estimator
+      predicts their mean and `predict(return_std=True)` their spread.
+    inputs, outputs, input_units, output_units: names and units kept in `Info` (default
+      in0.., out0.., "counts", "N").
   """
   kind = Kind(kind)
   counts, forces = linear.check_pair(counts, forces)
+  if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
+    raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
+  c, a = counts.shape[1], forces.shape[1]
+  names = {"inputs": (inputs, [f"in{i}" for i in range(c)], c),
+           "outputs": (outputs, [f"out{i}" for i in range(a)], a),
+           "input_units": (input_units, ["counts"] * c, c),
+           "output_units": (output_units, ["N"] * a, a)}
+  given = {}
+  for key, (value, default, n) in names.items():
+    value = list(default if value is None else value)
+    if len(value) != n:
+      raise errors.SettingError(f"{key}: {len(value)} names for {n} columns")
+    given[key] = tuple(str(v) for v in value)
+  settings = {"method": kind.value, "val_fraction": val_fraction, "seed": seed,
+              "val_block": val_block}
+  if kind is Kind.POLY:
+    settings["degree"] = degree
+  if kind in (Kind.LSANN, Kind.NN):
+    settings.update(config=dataclasses.asdict(config), ensemble=ensemble)
+
+  def info(residual_sd: np.ndarray) -> Info:
+    return Info(input_lo=counts.min(axis=0), input_hi=counts.max(axis=0),
+                residual_sd=np.asarray(residual_sd, float), samples=len(counts),
+                data_sha256=data_digest(counts, forces), settings=settings, **given)
+
   if kind in (Kind.LS, Kind.POLY):
-    return Estimator(kind, linear.fit_linear(counts, forces,
-                                             degree=degree if kind is Kind.POLY else 1))
+    d = degree if kind is Kind.POLY else 1
+    tr, va = split_validation(len(counts), val_fraction, seed, val_block)
+    held = linear.fit_linear(counts[tr], forces[tr], degree=d)
+    sd = np.std(forces[va] - held.predict(counts[va]), axis=0)
+    return Estimator(kind, linear.fit_linear(counts, forces, degree=d), info=info(sd))
   lin = None
-  inputs, targets = counts, forces
+  targets = forces
   if kind is Kind.LSANN:
     lin = linear_fit or linear.fit_linear(counts, forces)
     targets = forces - lin.predict(counts)
-  tr, va = split_validation(len(inputs), val_fraction, seed, val_block)
-  res = mlp.train(inputs[tr], targets[tr], inputs[va], targets[va], config, seed, progress,
-                  snapshots=snapshots)
-  return Estimator(kind, lin, res.net, res)
+  seeds = [seed] if ensemble == 1 else [
+      int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(ensemble)]
+  members, spreads = [], []
+  for k, member_seed in enumerate(seeds):
+    tr, va = split_validation(len(counts), val_fraction, member_seed, val_block)
+    res = mlp.train(counts[tr], targets[tr], counts[va], targets[va], config, member_seed,
+                    progress, snapshots=snapshots)
+    spreads.append(np.std(targets[va] - res.net.predict(counts[va]), axis=0))
+    members.append(Estimator(kind, lin, res.net, res))
+  sd = np.sqrt(np.mean(np.square(spreads), axis=0))
+  if ensemble == 1:
+    return dataclasses.replace(members[0], info=info(sd))
+  return Estimator(kind, info=info(sd), members=tuple(members))
 
 
 def at_epoch_cap(est: Estimator, cap: int) -> Estimator:

@@ -51,8 +51,10 @@ GRAPH = {name: _imports(path, _modules()) - {name} for name, path in _modules().
                                        ("sim", "calibrate"), ("calibrate", "sim"),
                                        ("calibrate", "benchmarks")])
 def test_data_flows_one_way(low, high):
+  # a package's __main__ is a command at the report end of the flow (python -m calibrate)
   wrong = {m: sorted(d for d in deps if d.split(".")[0] == high)
-           for m, deps in GRAPH.items() if m.split(".")[0] == low}
+           for m, deps in GRAPH.items() if m.split(".")[0] == low and
+           not m.endswith(".__main__")}
   assert not {m: d for m, d in wrong.items() if d}, f"{low} must not import {high}"
 
 

@@ -73,3 +73,36 @@ def _slip_table(ctx, rec) -> list[dict]:
               f"{r['mean_sliding_share']:17.1%}")
   return rows
 
+
+
+EXAMPLE_STEP = 20  # every 20th sample of 1 kHz: a 50 Hz example small enough to ship
+
+
+def recording_csv(rec, path, step: int = 1):
+  """Writes a footpad recording as a CSV in `calibrate.csvfile`'s layout: time (s, from the
+  first sample, increasing across episodes), the six dies' counts p1..p6 and the plate's force
+  Fx, Fy, Fz (N); every `step`-th sample."""
+  from calibrate import csvfile
+  keep = np.arange(0, len(rec), step)
+  dt = float(np.median(np.diff(rec.time[:100])))
+  t = keep * dt
+  d = rec.counts.shape[1]
+  names = ["time"] + [f"p{i + 1}" for i in range(d)] + ["Fx", "Fy", "Fz"]
+  units = ["s"] + ["counts"] * d + ["N"] * 3
+  data = np.column_stack([t, rec.counts[keep], rec.wrench[keep, :3]])
+  return csvfile.write(path, names, data, units)
+
+
+def example_csv(out, base=None) -> list:
+  """train.csv (the quick protocol's Z presses, X/Y strokes and Asterisk path, on the paths
+  at their depth) and test.csv (Testing Paths 1 and 2), every `EXAMPLE_STEP`-th sample,
+  simulated with the footpad's defaults at seed 0 (or the scene `base`)."""
+  import pathlib
+  from sim.footpad import protocol, scene as scene_lib
+  out = pathlib.Path(out)
+  out.mkdir(parents=True, exist_ok=True)
+  recs = {name: scene_lib.generate(s)[0]
+          for name, s in protocol.scenes(base or protocol.base(True, 0)).items()}
+  train = recs["train"].on_path(*protocol.LS_PATHS, "asterisk")
+  return [recording_csv(train, out / "train.csv", EXAMPLE_STEP),
+          recording_csv(recs["test"].on_path(), out / "test.csv", EXAMPLE_STEP)]

@@ -1,0 +1,234 @@
+"""Command line: calibrate recordings from your own rig, kept as CSV.
+
+  python -m calibrate fit --csv train.csv --inputs 'p*' --targets Fx,Fy,Fz --method lsann
+  python -m calibrate predict estimator.npz --csv new.csv [--std] [--out predictions.csv]
+  python -m calibrate evaluate estimator.npz --csv test.csv [--out DIR]
+  python -m calibrate export estimator.npz --c OUT_DIR
+  python -m calibrate example DIR
+
+The CSV layout is `calibrate.csvfile`'s: a header row of names, an optional units row, one
+row per sample, an increasing `time` column if any. Mistakes in the files or the arguments
+print one line starting `error:` and exit with code 2.
+
+This module is a command at the report end of the data flow, like `benchmarks.run`: it may
+use `benchmarks` (figures, the results table) and `sim` (the example), which the library
+modules of `calibrate` never import.
+"""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+from typing import Optional
+
+import numpy as np
+
+from models import errors, files
+
+METHODS = ("ls", "poly", "lsann", "nn")
+# median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
+THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
+
+
+def _parser() -> argparse.ArgumentParser:
+  from calibrate import csvfile
+  parser = argparse.ArgumentParser(
+      prog="python -m calibrate", formatter_class=argparse.RawDescriptionHelpFormatter,
+      description="Fit, apply, score and export force estimators on CSV recordings.",
+      epilog="CSV layout:\n" + csvfile.__doc__.split("The layout", 1)[1].split("Every")[0])
+  sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+  p = sub.add_parser("fit", help="fit an estimator on a CSV recording")
+  p.add_argument("--csv", required=True, type=pathlib.Path, help="training recording")
+  p.add_argument("--inputs", required=True,
+                 help="sensor columns, comma-separated names or globs (e.g. 'p*')")
+  p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
+  p.add_argument("--method", required=True, choices=METHODS,
+                 help="ls: linear least squares; poly: polynomial pseudoinverse; lsann: LS "
+                      "plus a network on its residual; nn: the network alone")
+  p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("estimator.npz"),
+                 help="where to write the estimator (default estimator.npz)")
+  p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
+  p.add_argument("--ensemble", type=int, default=1,
+                 help="networks from this many seeds; predict gives their spread (default 1)")
+  p.add_argument("--hidden", type=int, default=10, help="hidden units (default 10, the paper's)")
+  p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
+  p.add_argument("--degree", type=int, default=3, help="poly degree (default 3, the shell's)")
+  p.add_argument("--val-fraction", type=float, default=0.15,
+                 help="share held out for early stopping and the residual spread (0.15)")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  p.add_argument("--no-progress", action="store_true", help="no progress bar")
+  for name, text in (("predict", "apply an estimator to a CSV recording"),
+                     ("evaluate", "the papers' metrics and figures on held-out data")):
+    p = sub.add_parser(name, help=text)
+    p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
+    p.add_argument("--csv", required=True, type=pathlib.Path, help="the recording")
+    p.add_argument("--time-column", default="time", help="name of the time column (time)")
+    if name == "predict":
+      p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("predictions.csv"),
+                     help="where to write the predictions (default predictions.csv)")
+      p.add_argument("--std", action="store_true",
+                     help="add a standard deviation column per output (<name>_sd)")
+    else:
+      p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("evaluation"),
+                     help="folder for metrics.csv, metrics.json and figures (evaluation/)")
+  p = sub.add_parser("export", help="write the estimator as dependency-free C99")
+  p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
+  p.add_argument("--c", dest="c_dir", required=True, type=pathlib.Path,
+                 help="folder for estimator.h and estimator.c")
+  p = sub.add_parser("example", help="write the example recordings (simulated footpad)")
+  p.add_argument("out", type=pathlib.Path, help="folder for train.csv and test.csv")
+  return parser
+
+
+def _list(text: str) -> list[str]:
+  return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def fit(args) -> int:
+  from calibrate import csvfile, estimators, mlp
+  table = csvfile.read(args.csv, args.time_column)
+  ins = table.columns(_list(args.inputs), "--inputs")
+  outs = table.columns(_list(args.targets), "--targets")
+  if set(ins) & set(outs):
+    raise errors.SettingError("--inputs and --targets share columns: "
+                              + ", ".join(table.names[i] for i in set(ins) & set(outs)))
+  progress = None
+  if not args.no_progress and sys.stderr.isatty():
+    from tqdm import tqdm
+    bar = tqdm(desc="training", file=sys.stderr, leave=False)
+
+    def progress(done, total):
+      bar.total = total
+      bar.update(done - bar.n)
+  config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
+  est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
+                       table.data[:, outs], config=config, seed=args.seed,
+                       val_fraction=args.val_fraction, degree=args.degree,
+                       ensemble=args.ensemble, progress=progress,
+                       inputs=[table.names[i] for i in ins],
+                       outputs=[table.names[i] for i in outs],
+                       input_units=[table.units[i] or "counts" for i in ins],
+                       output_units=[table.units[i] or "N" for i in outs])
+  est.save(args.out)
+  info = est.info
+  print(f"fitted {est.kind.value} on {info.samples} samples of {args.csv} "
+        f"({len(ins)} inputs -> {', '.join(info.outputs)}); validation residual sd "
+        + ", ".join(f"{n} {v:.4g} {u}" for n, v, u in
+                    zip(info.outputs, info.residual_sd, info.output_units)))
+  stops = [m.training for m in (est.members or (est,)) if m.training is not None]
+  if stops:
+    print("training stopped: " + "; ".join(
+        f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
+  print(f"wrote {args.out}")
+  return 0
+
+
+def _inputs(est, table, what: str) -> np.ndarray:
+  names = est.info.inputs if est.info is not None else None
+  if names is None:
+    raise errors.DataError(f"{what}: the estimator holds no input names (fitted before they "
+                           f"were saved): fit it again")
+  return table.data[:, table.columns(list(names), f"--csv (the estimator's inputs)")]
+
+
+def predict(args) -> int:
+  from calibrate import csvfile, estimators
+  est = estimators.Estimator.load(args.estimator)
+  table = csvfile.read(args.csv, args.time_column)
+  x = _inputs(est, table, "predict")
+  pred, sd = est.predict(x, return_std=True)
+  names, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
+  if args.std:
+    names += [f"{n}_sd" for n in est.info.outputs]
+    units += units[:len(est.info.outputs)]
+    cols.append(sd)
+  t = table.column(args.time_column)
+  if t is not None:
+    names, units, cols = [args.time_column] + names, ["s"] + units, [t[:, None]] + cols
+  csvfile.write(args.out, names, np.hstack(cols), units)
+  print(f"{len(x)} predictions of {', '.join(est.info.outputs)} to {args.out}")
+  return 0
+
+
+def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
+  """The papers' metrics per output: RMSE (its unit), NRMSE %, R2 %, median % error (over
+  samples above `THRESHOLDS` of the unit) and worst error as % of the range."""
+  from calibrate import metrics
+  out = {}
+  for i, (name, unit) in enumerate(zip(names, units)):
+    one = metrics.summary(pred[:, i:i + 1], truth[:, i:i + 1], (name,),
+                          THRESHOLDS.get(unit, 0.0))
+    out[name] = one[name]
+  return out
+
+
+def evaluate(args) -> int:
+  from benchmarks import figures, outputs
+  from calibrate import csvfile, estimators
+  est = estimators.Estimator.load(args.estimator)
+  table = csvfile.read(args.csv, args.time_column)
+  x = _inputs(est, table, "evaluate")
+  truth = table.data[:, table.columns(list(est.info.outputs), "--csv (the estimator's outputs)")]
+  pred = est.predict(x)
+  names, units = est.info.outputs, est.info.output_units
+  result = scores(pred, truth, names, units)
+  print(f"{est.kind.value} on {len(x)} samples of {args.csv}")
+  print(f"{'output':8s} {'RMSE':>10s} {'NRMSE %':>8s} {'R2 %':>8s} {'median %':>9s} "
+        f"{'worst %':>8s}")
+  for n, u in zip(names, units):
+    r = result[n]
+    print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
+          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}   RMSE in {u}")
+  out = args.out
+  out.mkdir(parents=True, exist_ok=True)
+  metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
+             "method": est.kind.value, "results": result}
+  text = files.json_text(metrics, indent=1)
+  files.write_text(out / "metrics.json", text)
+  files.write_text(out / "metrics.csv", outputs.csv_text(outputs.metric_rows(
+      {"results": files.from_json(text)["results"]})))
+  t = table.column(args.time_column)
+  t = np.arange(len(x), dtype=float) if t is None else t
+  label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
+  figures.save(figures.over_time(t, truth, {est.kind.value: pred}, names, "/".join(
+      dict.fromkeys(units)), benchmark=label, seed=est.info.settings.get("seed", 0)),
+      out, "over_time")
+  figures.save(figures.scatter(truth, {est.kind.value: pred}, names, units, benchmark=label,
+                               seed=est.info.settings.get("seed", 0)), out, "predicted_vs_true")
+  print(f"wrote {out}/metrics.csv, metrics.json, figures/")
+  return 0
+
+
+def export(args) -> int:
+  from calibrate import cexport, estimators
+  est = estimators.Estimator.load(args.estimator)
+  report = cexport.write(est, args.c_dir)
+  print(report.text())
+  return 0
+
+
+def example(args) -> int:
+  from benchmarks.footpad import dataset
+  for path in dataset.example_csv(args.out):
+    print(f"wrote {path}")
+  return 0
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+  import warnings
+  args = _parser().parse_args(argv)
+  before = warnings.formatwarning
+  warnings.formatwarning = lambda message, *rest, **kw: f"warning: {message}\n"
+  try:
+    return {"fit": fit, "predict": predict, "evaluate": evaluate, "export": export,
+            "example": example}[args.command](args)
+  except errors.UserError as err:
+    print(f"error: {err}", file=sys.stderr)
+    return 2
+  finally:
+    warnings.formatwarning = before
+
+
+if __name__ == "__main__":
+  sys.exit(main())

@@ -1,0 +1,211 @@
+"""A fitted estimator as dependency-free C99 for the sensor's microcontroller.
+
+`write(est, out_dir)` writes `estimator.h` and `estimator.c`: float32 weights in `static
+const` arrays (flash) and one function
+
+    void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]);
+
+that computes what `Estimator.predict` computes in float64 (LS, POLY, LSANN, NN and
+ensembles, whose members it averages), with only <stdint.h> and <math.h> (tanhf). It returns
+a `Report`: multiply-adds, tanh calls, bytes of flash and of stack, against the budget of a
+1 kHz loop on the footpad's microcontroller.
+
+The budget (`Budget`): the LSANN paper's footpad reads its ADC with an NXP LPC1768, an ARM
+Cortex-M3 (paper Sec. II), run at 96 MHz on its mbed board (the LPC1768's limit is 100 MHz;
+512 kB flash, 64 kB SRAM: NXP's LPC1769/68/67/66/65/64/63 datasheet). The Cortex-M3 has no
+floating-point unit, so every float operation is a library call; the cycles per multiply-add
+and per tanhf are not measured here and are given as assumed ranges (`Budget`), so the
+report states a range of cycles per estimate beside the 96,000 a 1 kHz loop has.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+
+import numpy as np
+
+from models import errors, files
+
+
+@dataclasses.dataclass(frozen=True)
+class Budget:
+  """The target: clock, memories and the assumed cost of soft-float operations.
+
+  Attributes:
+    clock_hz: 96 MHz (mbed LPC1768).  rate_hz: estimates per second (the footpad's 1 kHz).
+    flash_bytes, ram_bytes: 512 kB and 64 kB (LPC1768 datasheet).
+    mac_cycles: (low, high) cycles of one float multiply and add in software on a Cortex-M3
+      (assumed 60-150: a soft-float multiply and an add, each some tens of cycles).
+    tanh_cycles: (low, high) cycles of one tanhf (assumed 1000-5000: an exponential and a
+      division in software).
+  """
+  clock_hz: float = 96e6
+  rate_hz: float = 1000.0
+  flash_bytes: int = 512 * 1024
+  ram_bytes: int = 64 * 1024
+  mac_cycles: tuple[float, float] = (60.0, 150.0)
+  tanh_cycles: tuple[float, float] = (1000.0, 5000.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Report:
+  """What the exported estimator costs per call.
+
+  Attributes:
+    multiply_adds, tanh: operations per estimate.
+    flash_bytes: the weights (float32).  stack_bytes: the largest working arrays.
+    cycles: (low, high) per estimate from `Budget`'s ranges.  budget: the target.
+    files: the paths written.
+  """
+  multiply_adds: int
+  tanh: int
+  flash_bytes: int
+  stack_bytes: int
+  cycles: tuple[float, float]
+  budget: Budget
+  files: tuple[str, ...]
+
+  def text(self) -> str:
+    b = self.budget
+    per_loop = b.clock_hz / b.rate_hz
+    lo, hi = self.cycles
+    return (f"wrote {', '.join(self.files)}\n"
+            f"per estimate: {self.multiply_adds} multiply-adds, {self.tanh} tanhf; weights "
+            f"{self.flash_bytes:,} bytes of flash ({self.flash_bytes / b.flash_bytes:.2%} of "
+            f"{b.flash_bytes // 1024} kB), {self.stack_bytes} bytes of stack "
+            f"({self.stack_bytes / b.ram_bytes:.2%} of {b.ram_bytes // 1024} kB)\n"
+            f"on a {b.clock_hz / 1e6:g} MHz Cortex-M3 without FPU (soft float, assumed "
+            f"{b.mac_cycles[0]:g}-{b.mac_cycles[1]:g} cycles per multiply-add, "
+            f"{b.tanh_cycles[0]:g}-{b.tanh_cycles[1]:g} per tanhf): {lo:,.0f}-{hi:,.0f} "
+            f"cycles, {lo / per_loop:.0%}-{hi / per_loop:.0%} of a {b.rate_hz:g} Hz loop's "
+            f"{per_loop:,.0f}")
+
+
+def _floats(a: np.ndarray) -> str:
+  flat = np.asarray(a, np.float32).ravel()
+  return ", ".join(_literal(v) for v in flat)
+
+
+def _literal(v: float) -> str:
+  """A float32 C literal that reads back to the same float (9 significant digits)."""
+  text = f"{float(np.float32(v)):.9g}"
+  return text + ("f" if any(ch in text for ch in ".eEn") else ".0f")
+
+
+class _Writer:
+  """Collects the constant arrays and the code of one estimator, member by member."""
+
+  def __init__(self):
+    self.arrays: list[str] = []
+    self.code: list[str] = []
+    self.flash = 0
+    self.macs = 0
+    self.tanh = 0
+    self.stack = 0
+
+  def array(self, name: str, a: np.ndarray) -> str:
+    a = np.asarray(a, np.float64)
+    self.arrays.append(f"static const float {name}[{a.size}] = {{{_floats(a)}}};")
+    self.flash += 4 * a.size
+    return name
+
+  def linear(self, fit, tag: str, c: int) -> None:
+    inv = np.where(fit.scale > 0, 1.0 / np.where(fit.scale > 0, fit.scale, 1.0), 0.0)
+    mean, scale = self.array(f"{tag}_MEAN", fit.mean), self.array(f"{tag}_INV_SCALE", inv)
+    coef = self.array(f"{tag}_COEF", fit.coef)  # (C * degree, A), row-major
+    bias = self.array(f"{tag}_BIAS", fit.bias)
+    a = fit.coef.shape[1]
+    self.macs += fit.coef.size + c * (fit.degree - 1)
+    self.stack = max(self.stack, 4 * c)
+    self.code += [
+        f"  {{ /* {'linear' if fit.degree == 1 else f'polynomial, degree {fit.degree}'} */",
+        f"    float z[{c}];",
+        f"    for (int i = 0; i < {c}; ++i) z[i] = (x[i] - {mean}[i]) * {scale}[i];",
+        f"    for (int j = 0; j < {a}; ++j) acc[j] += {bias}[j];",
+        f"    for (int i = 0; i < {c}; ++i) {{",
+        "      float p = z[i];",
+        f"      for (int d = 0; d < {fit.degree}; ++d) {{",
+        f"        const float *row = &{coef}[(d * {c} + i) * {a}];",
+        f"        for (int j = 0; j < {a}; ++j) acc[j] += row[j] * p;",
+        "        p *= z[i];",
+        "      }",
+        "    }",
+        "  }"]
+
+  def network(self, net, tag: str) -> None:
+    h, d1 = net.w1.shape
+    c, a = d1 - 1, net.w2.shape[0]
+    xhalf, xmid = net.x_scale._half()
+    yhalf, ymid = net.y_scale._half()
+    xm, xi = self.array(f"{tag}_XMID", xmid), self.array(f"{tag}_XINV", 1.0 / xhalf)
+    w1, w2 = self.array(f"{tag}_W1", net.w1), self.array(f"{tag}_W2", net.w2)
+    ym, yh = self.array(f"{tag}_YMID", ymid), self.array(f"{tag}_YHALF", yhalf)
+    self.macs += h * d1 + a * (h + 1) + c + a
+    self.tanh += h
+    self.stack = max(self.stack, 4 * (c + h))
+    self.code += [
+        "  { /* network: mapminmax, tanh hidden layer, linear output */",
+        f"    float s[{c}], hid[{h}];",
+        f"    for (int i = 0; i < {c}; ++i) s[i] = (x[i] - {xm}[i]) * {xi}[i];",
+        f"    for (int k = 0; k < {h}; ++k) {{",
+        f"      float v = {w1}[k * {d1} + {c}];",
+        f"      for (int i = 0; i < {c}; ++i) v += {w1}[k * {d1} + i] * s[i];",
+        "      hid[k] = tanhf(v);",
+        "    }",
+        f"    for (int j = 0; j < {a}; ++j) {{",
+        f"      float v = {w2}[j * {h + 1} + {h}];",
+        f"      for (int k = 0; k < {h}; ++k) v += {w2}[j * {h + 1} + k] * hid[k];",
+        f"      acc[j] += v * {yh}[j] + {ym}[j];",
+        "    }",
+        "  }"]
+
+
+def write(est, out_dir, budget: Budget = Budget()) -> Report:
+  """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
+  from calibrate import estimators
+  members = est.members or (est,)
+  c = est.n_inputs
+  a = (members[0].linear.coef.shape[1] if members[0].linear is not None
+       else members[0].net.w2.shape[0])
+  w = _Writer()
+  for k, m in enumerate(members):
+    tag = f"M{k}"
+    if m.kind is not estimators.Kind.NN:
+      w.linear(m.linear, f"{tag}_LIN", c)
+    if m.kind in (estimators.Kind.NN, estimators.Kind.LSANN):
+      w.network(m.net, f"{tag}_NET")
+  if not w.code:
+    raise errors.DataError("the estimator has neither a linear stage nor a network to export")
+  names = est.info.outputs if est.info is not None else tuple(f"out{j}" for j in range(a))
+  units = est.info.output_units if est.info is not None else ("",) * a
+  inputs = est.info.inputs if est.info is not None else tuple(f"in{i}" for i in range(c))
+  header = "\n".join([
+      "/* Force estimator exported by the tactile testbench (python -m calibrate export).",
+      f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if est.members
+                                       else "") + "; float32 weights; C99, <math.h> only.",
+      f" * Inputs (counts): {', '.join(inputs)}.",
+      f" * Outputs: {', '.join(f'{n} ({u})' for n, u in zip(names, units))}. */",
+      "#ifndef TESTBENCH_ESTIMATOR_H", "#define TESTBENCH_ESTIMATOR_H", "",
+      "#include <stdint.h>", "",
+      f"#define ESTIMATOR_INPUTS {c}", f"#define ESTIMATOR_OUTPUTS {a}", "",
+      "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]);",
+      "", "#endif", ""])
+  source = "\n".join(
+      ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + [
+          "",
+          "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]) {",
+          f"  float x[{c}], acc[{a}];",
+          f"  for (int i = 0; i < {c}; ++i) x[i] = (float)counts[i];",
+          f"  for (int j = 0; j < {a}; ++j) acc[j] = 0.0f;"] + w.code + [
+          f"  for (int j = 0; j < {a}; ++j) out[j] = acc[j] * {_literal(1.0 / len(members))};",
+          "}", ""])
+  out_dir = pathlib.Path(out_dir)
+  out_dir.mkdir(parents=True, exist_ok=True)
+  files.write_text(out_dir / "estimator.h", header)
+  files.write_text(out_dir / "estimator.c", source)
+  stack = w.stack + 4 * (c + a)
+  macs = w.macs + a * len(members)
+  cycles = tuple(macs * mc + w.tanh * tc for mc, tc in zip(budget.mac_cycles, budget.tanh_cycles))
+  return Report(macs, w.tanh, w.flash, stack, cycles, budget,
+                (str(out_dir / "estimator.h"), str(out_dir / "estimator.c")))

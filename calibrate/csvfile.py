@@ -1,0 +1,141 @@
+"""Recordings from real rigs as CSV: read, checked, written.
+
+The layout (`python -m calibrate --help` prints it):
+
+* line 1: column names, comma-separated (e.g. `time,p1,p2,p3,p4,p5,p6,Fx,Fy,Fz`);
+* optionally line 2: units, one per column (`s,counts,...,N`): a row with no number in it;
+* then one row per sample, every cell a number; lines starting with `#` are comments;
+* a time column (by default the one named `time`), when present, must increase.
+
+Every problem is one `errors.DataError` naming the file, the line and the column: a missing
+column, an empty cell, NaN or inf, text where a number belongs, time going backwards.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import fnmatch
+import io
+import pathlib
+from typing import Optional, Sequence
+
+import numpy as np
+
+from models import errors, files
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+  """The numbers of a CSV file.
+
+  Attributes:
+    names: (K,) column names.  units: (K,) units ("" where the file gives none).
+    data: (N, K) float64.
+    path: where it was read from.
+  """
+  names: tuple[str, ...]
+  units: tuple[str, ...]
+  data: np.ndarray
+  path: str = ""
+
+  def columns(self, patterns: Sequence[str], what: str) -> list[int]:
+    """Indices of the columns named by `patterns` (names or shell-style globs such as
+    `p*`), in the order given.
+
+    Raises:
+      errors.SettingError naming `what` (e.g. "--inputs") and the columns the file has.
+    """
+    out = []
+    for pattern in patterns:
+      hits = [i for i, n in enumerate(self.names) if fnmatch.fnmatchcase(n, pattern)]
+      if not hits:
+        raise errors.SettingError(
+            f"{what}: {self.path} has no column {pattern!r}; its columns are "
+            f"{', '.join(self.names)}")
+      out += [i for i in hits if i not in out]
+    return out
+
+  def column(self, name: str) -> Optional[np.ndarray]:
+    return self.data[:, self.names.index(name)] if name in self.names else None
+
+
+def _number(cell: str) -> Optional[float]:
+  try:
+    return float(cell)
+  except ValueError:
+    return None
+
+
+def read(path, time_column: str = "time") -> Table:
+  """Reads and checks a CSV file in the layout above.
+
+  Raises:
+    errors.DataError naming the file, line and column of the first problem.
+  """
+  path = pathlib.Path(path)
+  try:
+    text = path.read_text()
+  except (OSError, UnicodeDecodeError) as err:
+    raise errors.DataError(f"{path}: cannot be read ({err})") from None
+  lines = [(k + 1, line) for k, line in enumerate(text.splitlines())
+           if line.strip() and not line.lstrip().startswith("#")]
+  if not lines:
+    raise errors.DataError(f"{path}: empty (expected a header row of column names)")
+  rows = [(k, [c.strip() for c in cells]) for (k, _), cells in
+          zip(lines, csv.reader(line for _, line in lines))]
+  (header_line, names), body = rows[0], rows[1:]
+  if any(_number(n) is not None for n in names) or len(set(names)) != len(names) or \
+     not all(names):
+    raise errors.DataError(
+        f"{path} line {header_line}: the first row must name every column, once each "
+        f"(got {', '.join(names) or 'nothing'})")
+  units = [""] * len(names)
+  if body and all(_number(c) is None for c in body[0][1]):
+    units_line, units = body[0]
+    if len(units) != len(names):
+      raise errors.DataError(f"{path} line {units_line}: {len(units)} units for "
+                             f"{len(names)} columns")
+    body = body[1:]
+  if not body:
+    raise errors.DataError(f"{path}: no data rows after the header")
+  data = np.empty((len(body), len(names)))
+  for r, (line, cells) in enumerate(body):
+    if len(cells) != len(names):
+      raise errors.DataError(f"{path} line {line}: {len(cells)} cells for {len(names)} "
+                             f"columns")
+    for c, cell in enumerate(cells):
+      value = _number(cell)
+      if value is None or not np.isfinite(value):
+        why = ("is empty" if not cell else f"{cell!r} is not a finite number")
+        raise errors.DataError(f"{path} line {line}, column {names[c]!r}: {why}")
+      data[r, c] = value
+  table = Table(tuple(names), tuple(units), data, str(path))
+  t = table.column(time_column)
+  if t is not None:
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+      line = body[bad[0] + 1][0]
+      raise errors.DataError(
+          f"{path} line {line}, column {time_column!r}: time {t[bad[0] + 1]:g} does not "
+          f"increase (previous row {t[bad[0]]:g})")
+  return table
+
+
+def write(path, names: Sequence[str], data: np.ndarray,
+          units: Optional[Sequence[str]] = None) -> pathlib.Path:
+  """Writes (N, K) numbers under `names` (and a units row), atomically; floats in full
+  precision (repr), so a round trip gives the same bytes of float64."""
+  data = np.asarray(data, float)
+  if data.ndim != 2 or data.shape[1] != len(names):
+    raise ValueError(f"{data.shape} data for {len(names)} names")
+  buf = io.StringIO()
+  writer = csv.writer(buf, lineterminator="\n")
+  writer.writerow(names)
+  if units is not None:
+    writer.writerow(units)
+  for row in data:
+    writer.writerow([repr(float(v)) for v in row])
+  path = pathlib.Path(path)
+  files.write_text(path, buf.getvalue())
+  return path

@@ -1,0 +1,267 @@
+"""Calibrating real-rig recordings: CSV in, estimators that know what they were fitted on,
+their uncertainty, the command line, the scikit-learn face, and the estimator in C."""
+
+import json
+import shutil
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+from calibrate import __main__ as cli
+from calibrate import cexport, csvfile, estimators, metrics, mlp
+from calibrate.sklearn_api import ForceCalibrator
+from models import errors
+
+FAST = mlp.LMConfig(hidden=6, epochs=8)
+
+
+def _data(n=1500, seed=0):
+  rng = np.random.default_rng(seed)
+  counts = rng.integers(500, 3600, (n, 6)).astype(float)
+  z = (counts - 2000) / 800
+  forces = np.column_stack([z[:, 0] - z[:, 1] + 0.3 * z[:, 0] ** 2, z[:, 2] - z[:, 3],
+                            40 + 10 * z.sum(axis=1) + np.tanh(z[:, 4])])
+  return counts, forces + 0.01 * rng.normal(size=forces.shape)
+
+
+# ---- the CSV layout ----------------------------------------------------------------------
+
+def _csv(tmp_path, text, name="rec.csv"):
+  path = tmp_path / name
+  path.write_text(text)
+  return path
+
+
+@pytest.mark.parametrize("body, where", [
+    ("time,p1,Fx\ns,counts,N\n0,1,2\n0.1,,3\n", "line 4, column 'p1': is empty"),
+    ("time,p1,Fx\n0,1,2\n0.1,nan,3\n", "line 3, column 'p1': 'nan' is not a finite number"),
+    ("time,p1,Fx\n0,1,2\n0.1,1O,3\n", "line 3, column 'p1': '1O' is not a finite number"),
+    ("time,p1,Fx\n0,1,2\n0.2,1,3\n# note\n0.1,1,3\n", "line 5, column 'time': time 0.1 does "
+                                                     "not increase"),
+    ("time,p1,Fx\n0,1,2\n0.1,1\n", "line 3: 2 cells for 3 columns"),
+])
+def test_bad_csv_is_one_line_naming_line_and_column(tmp_path, capsys, body, where):
+  path = _csv(tmp_path, body)
+  code = cli.main(["fit", "--csv", str(path), "--inputs", "p1", "--targets", "Fx",
+                   "--method", "ls", "--out", str(tmp_path / "e.npz")])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert code == 2 and len(err) == 1 and where in err[0] and str(path) in err[0], err
+
+
+def test_a_missing_column_names_the_columns_the_file_has(tmp_path, capsys):
+  path = _csv(tmp_path, "time,p1,Fx\n0,1,2\n0.1,2,3\n")
+  code = cli.main(["fit", "--csv", str(path), "--inputs", "p*", "--targets", "Fy",
+                   "--method", "ls", "--out", str(tmp_path / "e.npz")])
+  err = capsys.readouterr().err
+  assert code == 2 and "--targets" in err and "'Fy'" in err and "time, p1, Fx" in err
+
+
+def test_units_row_and_globs_are_read(tmp_path):
+  path = _csv(tmp_path, "# a comment\ntime,p1,p2,Fx\ns,counts,counts,N\n0,1,2,3\n1,4,5,6\n")
+  t = csvfile.read(path)
+  assert t.units == ("s", "counts", "counts", "N") and t.columns(["p*"], "x") == [1, 2]
+  np.testing.assert_array_equal(t.data, [[0, 1, 2, 3], [1, 4, 5, 6]])
+
+
+def test_csv_write_then_read_gives_the_same_float64_bytes(tmp_path):
+  data = np.random.default_rng(1).normal(size=(50, 3)) * 1e3
+  csvfile.write(tmp_path / "x.csv", ["a", "b", "c"], data, ["N", "N", "N"])
+  assert csvfile.read(tmp_path / "x.csv").data.tobytes() == data.tobytes()
+
+
+# ---- estimators that know what they were fitted on ---------------------------------------
+
+def test_info_holds_names_units_ranges_and_the_datas_hash(tmp_path):
+  counts, forces = _data()
+  est = estimators.fit("POLY", counts, forces, inputs=[f"p{i}" for i in range(6)],
+                       outputs=["Fx", "Fy", "Fz"])
+  est.save(tmp_path / "e.npz")
+  back = estimators.Estimator.load(tmp_path / "e.npz")
+  assert back.info.inputs[0] == "p0" and back.info.outputs == ("Fx", "Fy", "Fz")
+  assert back.info.output_units == ("N",) * 3 and back.info.input_units == ("counts",) * 6
+  np.testing.assert_array_equal(back.info.input_lo, counts.min(axis=0))
+  assert back.info.data_sha256 == estimators.data_digest(counts, forces)
+  assert back.info.settings["method"] == "POLY" and back.info.settings["degree"] == 3
+  np.testing.assert_array_equal(back.predict(counts), est.predict(counts))
+
+
+def test_residual_spread_is_the_held_out_error():
+  """On a linear map with known noise, LS's validation residual spread is that noise."""
+  rng = np.random.default_rng(2)
+  counts = rng.normal(size=(20000, 4)) * 100
+  forces = counts @ rng.normal(size=(4, 2)) + rng.normal(size=(20000, 2)) * [0.5, 2.0]
+  est = estimators.fit("LS", counts, forces)
+  assert est.info.residual_sd == pytest.approx([0.5, 2.0], rel=0.05)
+
+
+def test_out_of_range_inputs_warn_once_with_their_share():
+  counts, forces = _data()
+  est = estimators.fit("LS", counts, forces)
+  new = counts[:200].copy()
+  new[:50, 2] = 5000  # a quarter outside on channel in2
+  with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    est.predict(new)
+  assert len(caught) == 1 and caught[0].category is estimators.OutOfRangeWarning
+  assert "25.0% of the 200 samples" in str(caught[0].message) and "in2" in str(caught[0].message)
+  with warnings.catch_warnings():
+    warnings.simplefilter("error")
+    est.predict(counts[:200])  # inside: silent
+
+
+def test_an_ensemble_predicts_its_members_mean_and_their_spread(tmp_path):
+  counts, forces = _data()
+  est = estimators.fit("NN", counts, forces, config=FAST, ensemble=3, seed=4)
+  assert len(est.members) == 3
+  each = np.stack([m.predict(counts[:100]) for m in est.members])
+  mean, sd = est.predict(counts[:100], return_std=True)
+  np.testing.assert_allclose(mean, each.mean(axis=0))
+  np.testing.assert_allclose(sd, np.sqrt(each.std(axis=0) ** 2 + est.info.residual_sd ** 2))
+  est.save(tmp_path / "ens.npz")
+  again = estimators.Estimator.load(tmp_path / "ens.npz")
+  np.testing.assert_array_equal(again.predict(counts[:100]), mean)
+
+
+def test_load_refuses_a_format_version_it_does_not_know(tmp_path):
+  counts, forces = _data()
+  estimators.fit("LS", counts, forces).save(tmp_path / "e.npz")
+  with np.load(tmp_path / "e.npz") as z:
+    arrays = {k: z[k] for k in z.files}
+  meta = json.loads(str(arrays.pop("meta")))
+  meta["version"] = 99
+  np.savez(tmp_path / "future.npz", meta=json.dumps(meta), **arrays)
+  with pytest.raises(errors.DataError, match="format version 99"):
+    estimators.Estimator.load(tmp_path / "future.npz")
+
+
+# ---- the scikit-learn face -----------------------------------------------------------------
+
+def test_the_wrapper_fits_and_scores_as_the_estimator_does():
+  counts, forces = _data()
+  model = ForceCalibrator(method="ls").fit(counts, forces)
+  est = estimators.fit("LS", counts, forces)
+  np.testing.assert_array_equal(model.predict(counts), est.predict(counts))
+  assert model.score(counts, forces) == pytest.approx(
+      np.mean(metrics.r2_pct(est.predict(counts), forces)) / 100)
+  assert model.get_params()["method"] == "ls" and model.n_features_in_ == 6
+  one = ForceCalibrator(method="poly", degree=2).fit(counts, forces[:, 2])
+  assert one.predict(counts).shape == (len(counts),)
+  with pytest.raises(ValueError, match="unknown parameter"):
+    model.set_params(alpha=1)
+
+
+# ---- simulator -> CSV -> command = the Python path -----------------------------------------
+
+@pytest.fixture(scope="module")
+def footpad_csv(tmp_path_factory):
+  from benchmarks.footpad import dataset
+  from sim.footpad import protocol, scene
+  out = tmp_path_factory.mktemp("csv")
+  recs = {k: scene.generate(s)[0] for k, s in protocol.scenes(protocol.base(True, 0)).items()}
+  train = recs["train"].on_path(*protocol.LS_PATHS, "asterisk")
+  test = recs["test"].on_path()
+  dataset.recording_csv(train, out / "train.csv", step=10)
+  dataset.recording_csv(test, out / "test.csv", step=10)
+  return out, train.select(np.arange(len(train)) % 10 == 0), test.select(
+      np.arange(len(test)) % 10 == 0)
+
+
+@pytest.mark.parametrize("method, extra", [("ls", []), ("nn", ["--epochs", "5", "--hidden", "5"])])
+def test_csv_round_trip_gives_the_python_paths_metrics(footpad_csv, tmp_path, method, extra,
+                                                       capsys):
+  out, train, test = footpad_csv
+  est_path = tmp_path / f"{method}.npz"
+  assert cli.main(["fit", "--csv", str(out / "train.csv"), "--inputs", "p*", "--targets",
+                   "Fx,Fy,Fz", "--method", method, "--out", str(est_path), "--no-progress",
+                   *extra]) == 0
+  assert cli.main(["evaluate", str(est_path), "--csv", str(out / "test.csv"), "--out",
+                   str(tmp_path / "ev")]) == 0
+  got = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
+  cfg = mlp.LMConfig(hidden=5, epochs=5)
+  with warnings.catch_warnings():
+    warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+    est = estimators.fit(method.upper(), train.counts, train.wrench[:, :3], config=cfg)
+    want = cli.scores(est.predict(test.counts), test.wrench[:, :3], ("Fx", "Fy", "Fz"),
+                      ("N",) * 3)
+  for ax in ("Fx", "Fy", "Fz"):
+    for key in ("rmse", "nrmse_pct", "r2_pct", "median_pct", "worst_pct"):
+      assert got[ax][key] == pytest.approx(want[ax][key], rel=1e-9, abs=1e-12), (ax, key)
+  assert (tmp_path / "ev" / "figures" / "over_time.png").exists()
+  assert (tmp_path / "ev" / "figures" / "predicted_vs_true.png").exists()
+  assert cli.main(["predict", str(est_path), "--csv", str(out / "test.csv"), "--std", "--out",
+                   str(tmp_path / "p.csv")]) == 0
+  pred = csvfile.read(tmp_path / "p.csv")
+  assert pred.names == ("time", "Fx", "Fy", "Fz", "Fx_sd", "Fy_sd", "Fz_sd")
+  np.testing.assert_allclose(pred.data[:, 1:4], est.predict(test.counts), rtol=1e-12,
+                             atol=1e-9)
+  assert (pred.data[:, 4:] > 0).all()
+
+
+def test_the_shipped_example_is_what_the_simulator_writes(tmp_path):
+  import pathlib
+  import calibrate
+  from benchmarks.footpad import dataset
+  shipped = pathlib.Path(calibrate.__file__).parent / "examples"
+  dataset.example_csv(tmp_path)
+  for name in ("train.csv", "test.csv"):
+    a, b = csvfile.read(shipped / name), csvfile.read(tmp_path / name)
+    assert a.names == b.names and a.units == b.units and a.data.shape == b.data.shape
+    np.testing.assert_allclose(a.data, b.data, rtol=1e-9, atol=1e-9)
+
+
+# ---- the estimator in C --------------------------------------------------------------------
+
+CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+HARNESS = r"""
+#include <stdio.h>
+#include "estimator.h"
+int main(void) {
+  unsigned v[ESTIMATOR_INPUTS];
+  for (;;) {
+    uint16_t c[ESTIMATOR_INPUTS]; float out[ESTIMATOR_OUTPUTS];
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i)
+      if (scanf("%u", &v[i]) != 1) return 0; else c[i] = (uint16_t)v[i];
+    estimate(c, out);
+    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
+    printf("\n");
+  }
+}
+"""
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.parametrize("kind, ensemble", [("LS", 1), ("POLY", 1), ("LSANN", 1), ("NN", 2)])
+def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble):
+  counts, forces = _data()
+  est = estimators.fit(kind, counts, forces, config=FAST, ensemble=ensemble, seed=1)
+  report = cexport.write(est, tmp_path)
+  (tmp_path / "main.c").write_text(HARNESS)
+  exe = tmp_path / "est"
+  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
+                  str(exe)], check=True, capture_output=True, text=True)
+  test = np.random.default_rng(9).integers(600, 3500, (300, 6))
+  run = subprocess.run([str(exe)], input="\n".join(" ".join(map(str, r)) for r in test),
+                       capture_output=True, text=True, check=True)
+  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  want = est.predict(test.astype(float))
+  # float32 weights and arithmetic: agreement relative to each output's scale
+  scale = np.abs(want).max(axis=0)
+  assert np.max(np.abs(c_out - want) / scale) < 1e-5
+  assert report.multiply_adds > 0 and report.flash_bytes >= 4 * est.n_inputs
+  assert report.tanh == (0 if kind in ("LS", "POLY") else 6 * ensemble)
+
+
+def test_the_export_report_counts_a_known_network():
+  """LSANN, 6 inputs, 10 hidden, 3 outputs: LS 6 x 3 = 18, network 10 x 7 + 3 x 11 + 6 + 3
+  = 112, the final scaling 3: 133 multiply-adds; weights (6 + 6 + 18 + 3) + (6 + 6 + 70 +
+  33 + 3 + 3) floats."""
+  counts, forces = _data()
+  est = estimators.fit("LSANN", counts, forces, config=mlp.LMConfig(hidden=10, epochs=2))
+  r = cexport.write(est, "/tmp/unused-export-dir")
+  assert r.multiply_adds == 133 and r.tanh == 10
+  assert r.flash_bytes == 4 * (33 + 121)
+  text = r.text()
+  assert "96 MHz" in text and "96,000" in text
