@@ -47,7 +47,11 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
   parser.add_argument("--list", action="store_true", help="list benchmarks and exit")
   parser.add_argument("--quick", action="store_true",
                       help="small data (3 Z levels instead of 16, a tenth of the shell's "
-                           "frames): finishes in seconds to minutes")
+                           "frames): seconds for the geometry benchmarks, a few minutes for "
+                           "those that train networks or sweep designs")
+  parser.add_argument("--check", action="store_true",
+                      help="check the command (name, settings, --out) and print the resolved "
+                           "settings without running")
   parser.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
   parser.add_argument("--out", type=pathlib.Path, default=None,
                       help="results folder (default results/NAME, or results/NAME-quick "
@@ -164,6 +168,11 @@ def _main(argv: Optional[list[str]]) -> int:
   if args.address and args.executor != "dask":
     parser.error("--address joins a Dask scheduler: add --executor dask")
   out = args.out or pathlib.Path("results") / (args.name + ("-quick" if args.quick else ""))
+  if args.check:
+    for k in settings.keys(applied, bench.fixed):
+      print(f"{k.name} = {_format(k.default)}")
+    print(f"ok: {args.name} would write to {out}/")
+    return 0
   earlier = None
   if args.compare is not None:  # read before the run: a mistake costs no simulation
     earlier = outputs.read_metric_rows(args.compare / "metrics.csv")

@@ -4,7 +4,7 @@
   python -m calibrate predict estimator.npz --csv new.csv [--std] [--out predictions.csv]
   python -m calibrate evaluate estimator.npz --csv test.csv [--out DIR]
   python -m calibrate export estimator.npz --c OUT_DIR
-  python -m calibrate example DIR
+  python -m calibrate example DIR [--simulate]
 
 The CSV layout is `calibrate.csvfile`'s: a header row of names, an optional units row, one
 row per sample, an increasing `time` column if any. Mistakes in the files or the arguments
@@ -76,8 +76,11 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
   p.add_argument("--c", dest="c_dir", required=True, type=pathlib.Path,
                  help="folder for estimator.h and estimator.c")
-  p = sub.add_parser("example", help="write the example recordings (simulated footpad)")
+  p = sub.add_parser("example", help="write the example recordings (the simulated footpad)")
   p.add_argument("out", type=pathlib.Path, help="folder for train.csv and test.csv")
+  p.add_argument("--simulate", action="store_true",
+                 help="write them afresh from the simulator (quick protocol, seed 0) instead "
+                      "of copying the files shipped with the package")
   return parser
 
 
@@ -208,9 +211,20 @@ def export(args) -> int:
   return 0
 
 
+EXAMPLES = pathlib.Path(__file__).parent / "examples"
+
+
 def example(args) -> int:
-  from benchmarks.footpad import dataset
-  for path in dataset.example_csv(args.out):
+  if args.simulate:
+    from benchmarks.footpad import dataset
+    written = dataset.example_csv(args.out)
+  else:
+    args.out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name in ("train.csv", "test.csv"):
+      files.write_text(args.out / name, (EXAMPLES / name).read_text())
+      written.append(args.out / name)
+  for path in written:
     print(f"wrote {path}")
   return 0
 
