@@ -22,7 +22,7 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from models import fields
+from models import fields, lighting
 from models.fields import setting
 
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
@@ -301,6 +301,7 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
   spec.add_sensor(name="ft_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
+  lighting.light(spec, 0.2)
   return spec
 
 

@@ -21,7 +21,7 @@ import math
 import mujoco
 import numpy as np
 
-from models import fields
+from models import fields, lighting
 from models.fields import setting
 
 
@@ -295,6 +295,7 @@ def build_spec(params: ShellParams, base: str = "ft", contacts: bool = False,
     joint.damping = [2 * params.damping_ratio * math.sqrt(stiff[j] * full[dof, dof]), 0, 0]
     if joint.name == "mount_z":
       joint.springref = weight / stiff[2]  # unloaded rest above the design gap
+  lighting.light(spec, 0.2)
   return spec
 
 

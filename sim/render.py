@@ -1,0 +1,221 @@
+"""Pictures of the rigs, drawn offscreen (no display needed).
+
+  python -m sim.render footpad [--out footpad.png] [--time T] [--path x_stroke] [--z 1.0]
+  python -m sim.render shell [--out shell.png] [--time T]
+  python -m sim.render footpad --video footpad.mp4     # needs: pip install -e '.[video]'
+
+The footpad runs one CNC path of the paper at one depth (`trajectories.episode`) from rest to
+time T (default: halfway along), its contact points and forces on the plate drawn; the shell
+settles on its springs over the reflectors for T seconds. MuJoCo renders through EGL (GPU or
+Mesa) or OSMesa: set MUJOCO_GL=egl or MUJOCO_GL=osmesa; on Debian/Ubuntu the libraries are the
+packages libegl1 (with libgl1-mesa-dri) or libosmesa6. `render` picks EGL, then OSMesa, when
+MUJOCO_GL is not set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import pathlib
+import sys
+from typing import Callable, Iterator, Optional
+
+import numpy as np
+
+from models import errors
+
+RIGS = ("footpad", "shell")
+FPS = 30
+
+
+@dataclasses.dataclass(frozen=True)
+class View:
+  """A free camera: the point it looks at (m), its distance (m) and angles (deg)."""
+  lookat: tuple[float, float, float]
+  distance: float
+  azimuth: float
+  elevation: float
+
+
+def choose_backend() -> None:
+  """Chooses an offscreen GL backend (EGL if its library is found, else OSMesa if found)
+  unless MUJOCO_GL says; MuJoCo reads it when first imported, so this runs on importing this
+  module, which imports MuJoCo only inside its functions."""
+  if os.environ.get("MUJOCO_GL"):
+    return
+  import ctypes.util
+  for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
+    if ctypes.util.find_library(library):
+      os.environ["MUJOCO_GL"] = backend
+      return  # neither found: MuJoCo's default, and `frames` says what to install
+
+
+choose_backend()
+
+
+def footpad_run(path: str = "x_stroke", z: float = 1e-3):
+  """(model, a stepper, episode seconds, view) of the footpad on one of the paper's paths at
+  depth z (m), with the protocol's default scene."""
+  import mujoco
+  from sim.footpad import protocol, scene as scene_lib, trajectories
+  scene = dataclasses.replace(protocol.base(quick=True, seed=0), paths=(path,), z_levels=(z,))
+  scene.validate()
+  model = scene_lib.compile_model(scene)
+  # MuJoCo draws a force f as f * map.force / meanmass long: the elements' ~2 N, 4 mm
+  model.vis.map.force = 2e-3 * float(model.stat.meanmass)
+  ep = trajectories.episode(path, z, scene.feed, scene.params.timestep, repeats=1)
+  data = mujoco.MjData(model)
+  from models import footpad as model_lib
+  data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
+
+  def step_to(t: float):
+    n = min(int(round(t / model.opt.timestep)), len(ep.target) - 1)
+    while data.time < n * model.opt.timestep - 1e-12:
+      k = min(int(round(data.time / model.opt.timestep)), len(ep.target) - 1)
+      data.ctrl[:] = ep.target[k]
+      mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    return data
+  return model, step_to, len(ep.target) * model.opt.timestep, View((0, 0, 0.0), 0.13, 135, -22)
+
+
+def shell_run():
+  """(model, a stepper, seconds, view) of the shell at rest on its springs."""
+  import mujoco
+  from sim.shell import protocol, scene as shell_scene
+  board = protocol.base(quick=True, seed=0)
+  model = shell_scene.compile_checked(board.spec(), "shell render", board.params)
+  data = mujoco.MjData(model)
+
+  def step_to(t: float):
+    while data.time < t - 1e-12:
+      mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    return data
+  c = model.stat.center
+  return model, step_to, 0.5, View((float(c[0]), float(c[1]), float(c[2])),
+                                   1.6 * float(model.stat.extent), 140, -30)
+
+
+def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
+           path: str = "x_stroke", z: float = 1e-3, segmentation: bool = False
+           ) -> Iterator[tuple[float, np.ndarray, object]]:
+  """(time, image, renderer scene) at each of `times` (s, increasing): RGB (H, W, 3) uint8,
+  or with `segmentation` (H, W, 2) int32 of object id and type per pixel."""
+  import mujoco
+  if rig not in RIGS:
+    raise errors.SettingError(f"rig {rig!r} is unknown: allowed {', '.join(RIGS)}")
+  model, step_to, _, view = footpad_run(path, z) if rig == "footpad" else shell_run()
+  width, height = size
+  if not (16 <= width <= model.vis.global_.offwidth and 16 <= height <= model.vis.global_.offheight):
+    raise errors.SettingError(f"image size {width}x{height} is out of range: allowed 16 to "
+                              f"{model.vis.global_.offwidth}x{model.vis.global_.offheight} px")
+  try:
+    renderer = mujoco.Renderer(model, height, width)
+  except Exception as err:  # no GL library: say which package gives one
+    raise errors.SimulationError(
+        f"render: MuJoCo could not open an offscreen context with MUJOCO_GL="
+        f"{os.environ.get('MUJOCO_GL')} ({err}); set MUJOCO_GL=egl (or osmesa) before Python "
+        f"starts, or import sim.render before mujoco, and install libegl1 and "
+        f"libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)") from None
+  cam = mujoco.MjvCamera()
+  cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+  cam.lookat[:], cam.distance, cam.azimuth, cam.elevation = (
+      view.lookat, view.distance, view.azimuth, view.elevation)
+  opt = mujoco.MjvOption()
+  opt.flags[mujoco.mjtVisFlag.mjVIS_CONTACTPOINT] = True
+  opt.flags[mujoco.mjtVisFlag.mjVIS_CONTACTFORCE] = True
+  if segmentation:
+    renderer.enable_segmentation_rendering()
+  try:
+    for t in times:
+      data = step_to(t)
+      renderer.update_scene(data, cam, opt)
+      yield t, renderer.render().copy(), renderer.scene
+  finally:
+    renderer.close()
+
+
+def project(scene, point: np.ndarray, size: tuple[int, int], fovy: float) -> tuple[int, int]:
+  """(row, column) of the pixel where the world point (m) lands in an image of `size` (W, H)
+  rendered from the scene's camera (`frames`' third item) with vertical field of view fovy
+  (deg, the model's `vis.global_.fovy`)."""
+  # the scene holds two eyes half the model's interpupillary distance either side: the
+  # picture (mono) is taken from their midpoint
+  pos = (np.array(scene.camera[0].pos, float) + np.array(scene.camera[1].pos, float)) / 2
+  forward, up = (np.array(v, float) for v in (scene.camera[0].forward, scene.camera[0].up))
+  right = np.cross(forward, up)
+  d = np.asarray(point, float) - pos
+  x, y, z = d @ right, d @ up, d @ forward
+  width, height = size
+  f = (height / 2) / np.tan(np.radians(fovy) / 2)
+  return int(round(height / 2 - f * y / z)), int(round(width / 2 + f * x / z))
+
+
+def save_png(image: np.ndarray, out: pathlib.Path) -> pathlib.Path:
+  import matplotlib
+  matplotlib.use("Agg", force=True)
+  import matplotlib.pyplot as plt
+  out = pathlib.Path(out)
+  out.parent.mkdir(parents=True, exist_ok=True)
+  plt.imsave(out, image)
+  return out
+
+
+def save_video(images: Iterator[np.ndarray], out: pathlib.Path, fps: int = FPS) -> pathlib.Path:
+  try:
+    import imageio.v2 as imageio
+  except ImportError:
+    raise errors.SettingError("--video needs imageio and its ffmpeg: pip install -e "
+                              "'.[video]' (imageio, imageio-ffmpeg)") from None
+  out = pathlib.Path(out)
+  out.parent.mkdir(parents=True, exist_ok=True)
+  with imageio.get_writer(out, fps=fps, macro_block_size=1) as writer:
+    for image in images:
+      writer.append_data(image)
+  return out
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+  parser = argparse.ArgumentParser(prog="python -m sim.render", description=__doc__.split(
+      "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
+      epilog=__doc__.split("\n\n", 2)[2])
+  parser.add_argument("rig", choices=RIGS)
+  parser.add_argument("--out", type=pathlib.Path, default=None, help="PNG (default RIG.png)")
+  parser.add_argument("--time", type=float, default=None,
+                      help="simulated seconds before the picture (default: halfway along the "
+                           "footpad's path; 0.5 s for the shell)")
+  parser.add_argument("--video", type=pathlib.Path, default=None,
+                      help=f"also an MP4 of the whole run at {FPS} frames/s")
+  parser.add_argument("--path", default="x_stroke", help="footpad: the paper's path to run")
+  parser.add_argument("--z", type=float, default=1.0, help="footpad: depth, mm (default 1)")
+  parser.add_argument("--size", default="640x480", help="image size WxH, px (640x480)")
+  args = parser.parse_args(argv)
+  try:
+    try:
+      width, height = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+      raise errors.SettingError(f"--size {args.size!r} is not WxH (e.g. 640x480)") from None
+    kw = dict(size=(width, height), path=args.path, z=args.z * 1e-3)
+    _, _, seconds, _ = footpad_run(args.path, args.z * 1e-3) if args.rig == "footpad" else \
+        shell_run()
+    t = seconds / 2 if args.time is None else args.time
+    if not 0 <= t <= seconds:
+      raise errors.SettingError(f"--time {t:g} is out of range: allowed 0 to {seconds:g} s "
+                                f"for this run")
+    (_, image, _), = frames(args.rig, [t], **kw)
+    out = save_png(image, args.out or pathlib.Path(f"{args.rig}.png"))
+    print(f"wrote {out} ({args.rig} at t = {t:.3f} s)")
+    if args.video is not None:
+      times = list(np.arange(0.0, seconds, 1.0 / FPS))
+      video = save_video((im for _, im, _ in frames(args.rig, times, **kw)), args.video)
+      print(f"wrote {video} ({len(times)} frames, {seconds:.2f} s)")
+  except errors.UserError as err:
+    print(f"error: {err}", file=sys.stderr)
+    return 2
+  return 0
+
+
+if __name__ == "__main__":
+  sys.exit(main())
