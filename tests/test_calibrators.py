@@ -68,6 +68,9 @@ def test_predictions_file_reproduces_the_tables_errors(table):
       got = metrics.summary(z[f"pred_{m}"].astype(float), truth, axes)
       for ax in axes:  # float32 in the file: agreement to its precision
         assert got[ax]["rmse"] == pytest.approx(table[m][ax]["rmse"], rel=1e-4), (m, ax)
+  ensemble = estimators.Estimator.load(table["out"] / "estimators" / "NN_ensemble.npz")
+  assert ensemble.info.inputs == ("p1", "p2", "p3", "p4", "p5", "p6")
+  assert ensemble.info.outputs == ("Fx", "Fy", "Fz") and len(ensemble.members) == 1
   for name in ("force_over_time", "strokes"):
     assert (table["out"] / "figures" / f"{name}.png").stat().st_size > 10_000
 

@@ -62,8 +62,11 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
   strokes, nn_train, test = protocol.splits(recs["train"], recs["test"], nn_paths).values()
   truth = test.wrench[:, :3]
 
+  # the names `calibrate` CSVs of footpad recordings carry (benchmarks.footpad.dataset)
+  names = dict(inputs=[f"p{i + 1}" for i in range(strokes.counts.shape[1])],
+               outputs=["Fx", "Fy", "Fz"])
   t0 = time.perf_counter()
-  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3])
+  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3], **names)
   ls_seconds = time.perf_counter() - t0
   ls_train = metrics.summary(ls.predict(strokes.counts), strokes.wrench[:, :3], AXES)
   ctx.print(f"LS on {len(strokes)} stroke samples (rank {ls.linear.rank}); networks on "
@@ -83,7 +86,8 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
     row, trained = {"seed": seed}, {}
     for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
       est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
-                           seed=seed, progress=ctx.progress(f"{kind.value} seed {k + 1}/{n_seeds}"))
+                           seed=seed, progress=ctx.progress(f"{kind.value} seed {k + 1}/{n_seeds}"),
+                           **names)
       est.save(est_dir / f"{kind.value}_seed{k}.npz")
       fitted[kind.value].append(est)
       tr = trained[kind.value] = est.training
@@ -100,6 +104,11 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
     row["iterations_to_common"] = {"LSANN": lsann.epochs_to(common), "NN": nn.epochs_to(common)}
     per_seed.append(row)
 
+  for m in ("LSANN", "NN"):  # the seeds as one estimator: their mean and spread
+    first = fitted[m][0].info
+    spread = np.sqrt(np.mean([e.info.residual_sd ** 2 for e in fitted[m]], axis=0))
+    estimators.Estimator(estimators.Kind(m), info=dataclasses.replace(first, residual_sd=spread),
+                         members=tuple(fitted[m])).save(est_dir / f"{m}_ensemble.npz")
   results = {"LS": {**metrics.summary(ls.predict(test.counts), truth, AXES),
                     "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
   for m in ("LSANN", "NN"):
