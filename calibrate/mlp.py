@@ -347,7 +347,8 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   Args:
     x, y: (N, D) inputs and (N, O) targets.  x_val, y_val: held-out validation samples.
     config: LM settings.  seed: integer driving the Nguyen-Widrow start (JAX key).
-    progress: called as progress(epoch, config.epochs).
+    progress: called as progress(epoch, config.epochs) after each epoch, and once as
+      progress(epoch, epoch) when training stops before the cap.
     start: optional parameter vector to start from instead of Nguyen-Widrow.
     snapshots: epoch caps at which to keep the best net so far (`TrainResult.snapshots`), so
       one run stands for the runs with those smaller `epochs`.
@@ -428,6 +429,8 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
       continue
     break
   seconds = time.perf_counter() - t1
+  if progress and ep < config.epochs:
+    progress(ep, ep)  # stopped early: the stage is over, its bar or line closes
 
   def net(theta):
     w1, w2 = (np.asarray(w) for w in _unpack(theta, h, d, o))

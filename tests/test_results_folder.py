@@ -75,3 +75,30 @@ def test_a_quick_run_has_a_folder_apart_from_the_full_run(tmp_path, monkeypatch)
   assert run.main(["shell_geometry", "--quick"]) == 0
   assert (tmp_path / "results" / "shell_geometry-quick" / "metrics.json").exists()
   assert not (tmp_path / "results" / "shell_geometry").exists()
+
+
+def test_progress_piped_is_one_line_per_stage(tmp_path, capsys):
+  from benchmarks.registry import Context
+  ctx = Context(quick=True, seed=0, out=tmp_path, settings=None)
+  bar = ctx.progress("LSANN seed 1/5")
+  for done in (1, 2, 3):
+    bar(done, 1000)
+  bar(3, 3)  # training stopped early: the stage ends
+  err = capsys.readouterr().err.strip().splitlines()
+  assert len(err) == 1 and err[0].startswith("LSANN seed 1/5: 3 done in")
+  assert Context(quick=True, seed=0, out=tmp_path, settings=None,
+                 show_progress=False).progress("x") is None
+
+
+def test_training_closes_its_progress_when_it_stops_early():
+  import numpy as np
+  from calibrate import mlp
+  rng = np.random.default_rng(0)
+  x = rng.normal(size=(400, 3))
+  y = x @ rng.normal(size=(3, 2))
+  calls = []
+  res = mlp.train(x[:300], y[:300], x[300:], y[300:] + 5.0,  # validation that cannot improve
+                  mlp.LMConfig(hidden=3, epochs=200, max_fail=2), progress=lambda d, t:
+                  calls.append((d, t)))
+  assert res.epochs < 200 and calls[-1] == (res.epochs, res.epochs)
+  assert [d for d, _ in calls[:-1]] == list(range(1, res.epochs + 1))

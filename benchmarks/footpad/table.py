@@ -136,7 +136,8 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
   outside = {m: float(fitted[m][0].outside(test.counts).any(axis=1).mean()) for m in METHODS}
   comparison["test_outside_training_range"] = outside
   ctx.print("test samples with counts outside the training range: " + ", ".join(
-      f"{m} {v:.1%}" for m, v in outside.items()) + " (LS is fitted on the strokes only)")
+      f"{m} {v:.1%}" for m, v in outside.items()) + f" (LS is fitted on the Z presses and "
+      f"strokes, the networks on {', '.join(nn_paths)}: outside, they extrapolate)")
   _predictions_and_figures(ctx, recs["train"], test, fitted)
   general = _generalisation(ctx, fitted)
   blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
