@@ -25,8 +25,11 @@ def run(ctx) -> dict:
     key = cache.content_key(scene_lib.cache_key(scenes[name]))
     out["recordings"][name] = {"samples": len(rec), "per_path": per_path,
                                "force_range_N": ranges, "cache_key": key}
+    stem = cache.cache_dir() / "recordings" / f"footpad-{key}"
+    out["recordings"][name]["stem"] = str(stem)
     ctx.print(f"{name}: {len(rec)} samples; " + ", ".join(
         f"F{ax} {lo:+.1f}..{hi:+.1f} N (range {hi - lo:.1f})" for ax, (lo, hi) in ranges.items()))
+    ctx.print(f"  Recording.load({str(stem)!r})")
     for p, n in per_path.items():
       ctx.print(f"  {p:12s} {n:8d} samples")
     if timing is None:
