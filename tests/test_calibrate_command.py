@@ -265,3 +265,44 @@ def test_the_export_report_counts_a_known_network():
   assert r.flash_bytes == 4 * (33 + 121)
   text = r.text()
   assert "96 MHz" in text and "96,000" in text
+
+
+ARM_CC, QEMU = shutil.which("arm-linux-gnueabi-gcc"), shutil.which("qemu-arm")
+BENCH = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "estimator.h"
+int main(int argc, char **argv) {
+  int n = atoi(argv[1]);
+  uint16_t c[ESTIMATOR_INPUTS] = {2100, 2200, 1900, 2500, 2300, 2000};
+  float out[ESTIMATOR_OUTPUTS]; volatile float sink = 0;
+  for (int k = 0; k < n; ++k) { c[0] = (uint16_t)(2000 + k % 7); estimate(c, out); sink += out[0]; }
+  printf("%g\n", (double)sink);
+  return 0;
+}
+"""
+
+
+@pytest.mark.skipif(ARM_CC is None or QEMU is None,
+                    reason="needs Debian's gcc-arm-linux-gnueabi and qemu-user")
+def test_the_budgets_instruction_counts_match_an_arm_run(tmp_path):
+  """The cycle model's instruction counts (74 per soft-float multiply-add, 1,700 per tanhf)
+  against the instructions qemu-arm executes per estimate, compiled for Thumb-2 soft float."""
+  counts, forces = _data()
+  est = estimators.fit("LSANN", counts, forces, config=mlp.LMConfig(hidden=10, epochs=2))
+  report = cexport.write(est, tmp_path)
+  (tmp_path / "bench.c").write_text(BENCH)
+  exe = tmp_path / "bench"
+  subprocess.run([ARM_CC, "-std=c99", "-O2", "-mcpu=cortex-a8", "-mthumb", "-mfloat-abi=soft",
+                  "-static", str(tmp_path / "estimator.c"), str(tmp_path / "bench.c"), "-lm",
+                  "-o", str(exe)], check=True, capture_output=True)
+
+  def executed(n):
+    log = tmp_path / f"q{n}.log"
+    subprocess.run([QEMU, "-singlestep", "-d", "exec,nochain", "-D", str(log), str(exe),
+                    str(n)], check=True, capture_output=True)
+    return sum(1 for line in open(log) if line.startswith("Trace"))
+  per_estimate = (executed(40) - executed(0)) / 40
+  model = (report.multiply_adds * cexport.Budget().mac_cycles[0]
+           + report.tanh * cexport.Budget().tanh_cycles[0])
+  assert per_estimate == pytest.approx(model, rel=0.15)
