@@ -115,7 +115,7 @@ class _Writer:
     self.flash += 4 * a.size
     return name
 
-  def linear(self, fit, tag: str, c: int) -> None:
+  def linear(self, fit, tag: str, c: int, acc: str = "acc") -> None:
     inv = np.where(fit.scale > 0, 1.0 / np.where(fit.scale > 0, fit.scale, 1.0), 0.0)
     mean, scale = self.array(f"{tag}_MEAN", fit.mean), self.array(f"{tag}_INV_SCALE", inv)
     coef = self.array(f"{tag}_COEF", fit.coef)  # (C * degree, A), row-major
@@ -127,12 +127,12 @@ class _Writer:
         f"  {{ /* {'linear' if fit.degree == 1 else f'polynomial, degree {fit.degree}'} */",
         f"    float z[{c}];",
         f"    for (int i = 0; i < {c}; ++i) z[i] = (x[i] - {mean}[i]) * {scale}[i];",
-        f"    for (int j = 0; j < {a}; ++j) acc[j] += {bias}[j];",
+        f"    for (int j = 0; j < {a}; ++j) {acc}[j] += {bias}[j];",
         f"    for (int i = 0; i < {c}; ++i) {{",
         "      float p = z[i];",
         f"      for (int d = 0; d < {fit.degree}; ++d) {{",
         f"        const float *row = &{coef}[(d * {c} + i) * {a}];",
-        f"        for (int j = 0; j < {a}; ++j) acc[j] += row[j] * p;",
+        f"        for (int j = 0; j < {a}; ++j) {acc}[j] += row[j] * p;",
         "        p *= z[i];",
         "      }",
         "    }",
@@ -174,9 +174,15 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
   a = (members[0].linear.coef.shape[1] if members[0].linear is not None
        else members[0].net.w2.shape[0])
   w = _Writer()
+  # an ensemble's members share the linear stage they were fitted with: computed once
+  shared = len(members) > 1 and all(m.linear is not None for m in members) and all(
+      all(np.array_equal(getattr(m.linear, f), getattr(members[0].linear, f))
+          for f in ("mean", "scale", "coef", "bias")) for m in members[1:])
+  if shared:
+    w.linear(members[0].linear, "SHARED_LIN", c, acc="lin")
   for k, m in enumerate(members):
     tag = f"M{k}"
-    if m.kind is not estimators.Kind.NN:
+    if m.kind is not estimators.Kind.NN and not shared:
       w.linear(m.linear, f"{tag}_LIN", c)
     if m.kind in (estimators.Kind.NN, estimators.Kind.LSANN):
       w.network(m.net, f"{tag}_NET")
@@ -202,14 +208,16 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
           "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]) {",
           f"  float x[{c}], acc[{a}];",
           f"  for (int i = 0; i < {c}; ++i) x[i] = (float)counts[i];",
-          f"  for (int j = 0; j < {a}; ++j) acc[j] = 0.0f;"] + w.code + [
-          f"  for (int j = 0; j < {a}; ++j) out[j] = acc[j] * {_literal(1.0 / len(members))};",
+          f"  float lin[{a}];",
+          f"  for (int j = 0; j < {a}; ++j) {{ acc[j] = 0.0f; lin[j] = 0.0f; }}"] + w.code + [
+          f"  for (int j = 0; j < {a}; ++j) out[j] = lin[j] + acc[j] * "
+          f"{_literal(1.0 / len(members))};",
           "}", ""])
   out_dir = pathlib.Path(out_dir)
   out_dir.mkdir(parents=True, exist_ok=True)
   files.write_text(out_dir / "estimator.h", header)
   files.write_text(out_dir / "estimator.c", source)
-  stack = w.stack + 4 * (c + a)
+  stack = w.stack + 4 * (c + 2 * a)
   macs = w.macs + a * len(members)
   cycles = tuple(macs * mc + w.tanh * tc for mc, tc in zip(budget.mac_cycles, budget.tanh_cycles))
   return Report(macs, w.tanh, w.flash, stack, cycles, budget,

@@ -232,7 +232,8 @@ int main(void) {
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("kind, ensemble", [("LS", 1), ("POLY", 1), ("LSANN", 1), ("NN", 2)])
+@pytest.mark.parametrize("kind, ensemble", [("LS", 1), ("POLY", 1), ("LSANN", 1), ("NN", 2),
+                                            ("LSANN", 3)])
 def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble):
   counts, forces = _data()
   est = estimators.fit(kind, counts, forces, config=FAST, ensemble=ensemble, seed=1)
@@ -252,6 +253,8 @@ def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble):
   assert np.max(np.abs(c_out - want) / scale) < 1e-5
   assert report.multiply_adds > 0 and report.flash_bytes >= 4 * est.n_inputs
   assert report.tanh == (0 if kind in ("LS", "POLY") else 6 * ensemble)
+  if kind == "LSANN" and ensemble > 1:  # the shared linear stage once
+    assert (tmp_path / "estimator.c").read_text().count("_LIN_COEF[") == 2
 
 
 def test_the_export_report_counts_a_known_network():
