@@ -294,6 +294,11 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
   counts, forces = linear.check_pair(counts, forces)
   if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
     raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
+  if ensemble > 1 and kind in (Kind.LS, Kind.POLY):
+    raise errors.SettingError(f"ensemble={ensemble}: {kind.value} has no random start, so its "
+                              f"seeds would agree; an ensemble is for LSANN and NN")
+  if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2 ** 63):
+    raise errors.SettingError(f"seed={seed!r} is out of range: allowed integers >= 0")
   c, a = counts.shape[1], forces.shape[1]
   names = {"inputs": (inputs, [f"in{i}" for i in range(c)], c),
            "outputs": (outputs, [f"out{i}" for i in range(a)], a),

@@ -309,3 +309,19 @@ def test_the_budgets_instruction_counts_match_an_arm_run(tmp_path):
   model = (report.multiply_adds * cexport.Budget().mac_cycles[0]
            + report.tanh * cexport.Budget().tanh_cycles[0])
   assert per_estimate == pytest.approx(model, rel=0.15)
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--method", "ls", "--ensemble", "3"], "an ensemble is for LSANN and NN"),
+    (["--method", "ls", "--seed", "-1"], "seed=-1 is out of range"),
+    (["--method", "nn", "--hidden", "0"], "hidden=0 is out of range"),
+    (["--method", "poly", "--degree", "0"], "degree=0 is out of range"),
+])
+def test_fit_settings_out_of_range_are_one_line(tmp_path, capsys, args, says):
+  import calibrate
+  import pathlib
+  train = pathlib.Path(calibrate.__file__).parent / "examples" / "train.csv"
+  code = cli.main(["fit", "--csv", str(train), "--inputs", "p*", "--targets", "Fx,Fy,Fz",
+                   "--out", str(tmp_path / "e.npz"), *args])
+  err = capsys.readouterr().err.strip().splitlines()
+  assert code == 2 and len(err) == 1 and says in err[0], err
