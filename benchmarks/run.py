@@ -127,12 +127,12 @@ def main(argv: Optional[list[str]] = None) -> int:
   except Exception:  # a bug before the results folder was known (a run's own are in _run)
     from sim import cache
     stamp = time.strftime("%Y%m%d-%H%M%S")
-    return _internal_error(cache.cache_dir() / "tracebacks" / f"{stamp}.txt")
+    return internal_error(cache.cache_dir() / "tracebacks" / f"{stamp}.txt")
   finally:
     warnings.formatwarning = before
 
 
-def _internal_error(path: pathlib.Path) -> int:
+def internal_error(path: pathlib.Path) -> int:
   """Saves the traceback being handled to `path` and says so in two lines; exit code 3."""
   path.parent.mkdir(parents=True, exist_ok=True)
   files.write_text(path, traceback.format_exc())
@@ -208,7 +208,7 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
           "command to go on", file=sys.stderr)
     return 130
   except Exception:  # not the user's mistake: a short message and the saved traceback
-    return _internal_error(out / "traceback.txt")
+    return internal_error(out / "traceback.txt")
   wall = time.perf_counter() - t0
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
              "settings": overrides, "wall_seconds": wall, **result}

@@ -240,6 +240,12 @@ def main(argv: Optional[list[str]] = None) -> int:
   except errors.UserError as err:
     print(f"error: {err}", file=sys.stderr)
     return 2
+  except Exception:  # a bug, not the user's mistake: two lines and the saved traceback
+    import time
+    from benchmarks import run
+    from sim import cache
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return run.internal_error(cache.cache_dir() / "tracebacks" / f"calibrate-{stamp}.txt")
   finally:
     warnings.formatwarning = before
 

@@ -325,3 +325,16 @@ def test_fit_settings_out_of_range_are_one_line(tmp_path, capsys, args, says):
                    "--out", str(tmp_path / "e.npz"), *args])
   err = capsys.readouterr().err.strip().splitlines()
   assert code == 2 and len(err) == 1 and says in err[0], err
+
+
+def test_a_bug_in_the_command_says_so_and_saves_its_traceback(tmp_path, capsys, monkeypatch):
+  import calibrate
+  import pathlib
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
+  monkeypatch.setattr(cli, "fit", lambda args: 1 / 0)
+  train = pathlib.Path(calibrate.__file__).parent / "examples" / "train.csv"
+  code = cli.main(["fit", "--csv", str(train), "--inputs", "p*", "--targets", "Fx",
+                   "--method", "ls"])
+  err = capsys.readouterr().err
+  assert code == 3 and "internal error" in err and "ZeroDivisionError" in err
+  assert list((tmp_path / "tracebacks").glob("calibrate-*.txt"))
