@@ -65,6 +65,11 @@ def test_units_row_and_globs_are_read(tmp_path):
   np.testing.assert_array_equal(t.data, [[0, 1, 2, 3], [1, 4, 5, 6]])
 
 
+def test_quoted_numbers_and_blank_lines_are_read(tmp_path):
+  path = _csv(tmp_path, 'time,p1,Fx\n\n"0","1.5",2\n# c\n1,2,"-3e2"\n')
+  np.testing.assert_array_equal(csvfile.read(path).data, [[0, 1.5, 2], [1, 2, -300]])
+
+
 def test_csv_write_then_read_gives_the_same_float64_bytes(tmp_path):
   data = np.random.default_rng(1).normal(size=(50, 3)) * 1e3
   csvfile.write(tmp_path / "x.csv", ["a", "b", "c"], data, ["N", "N", "N"])
