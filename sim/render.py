@@ -6,7 +6,8 @@
 
 The footpad runs one CNC path of the paper at one depth (`trajectories.episode`) from rest to
 time T (default: halfway along), its contact points and forces on the plate drawn; the shell
-settles on its springs over the reflectors for T seconds. MuJoCo renders through EGL (GPU or
+settles on its springs over the reflectors for T seconds, each photointerrupter's beam drawn
+in red from its sensor to the facet it reads. MuJoCo renders through EGL (GPU or
 Mesa) or OSMesa: set MUJOCO_GL=egl or MUJOCO_GL=osmesa; on Debian/Ubuntu the libraries are the
 packages libegl1 (with libgl1-mesa-dri) or libosmesa6. `render` picks EGL, then OSMesa, when
 MUJOCO_GL is not set.
@@ -80,6 +81,27 @@ def footpad_run(path: str = "x_stroke", z: float = 1e-3):
   return model, step_to, len(ep.target) * model.opt.timestep, View((0, 0, 0.0), 0.13, 135, -22)
 
 
+def _beams(model, data, scene) -> None:
+  """Each photointerrupter's beam, from its site up to the reflector facet its ray meets
+  (`sim.shell.geometry.ray_heights`), drawn into the scene as a red line."""
+  import mujoco
+  from sim.shell import geometry
+  heights = geometry.ray_heights(model, data)
+  for i, h in enumerate(heights):
+    if not np.isfinite(h) or scene.ngeom >= scene.maxgeom:
+      continue
+    site = data.site(f"P{i + 1}")
+    start = site.xpos.copy()
+    end = start + h * site.xmat.reshape(3, 3)[:, 2]
+    g = scene.geoms[scene.ngeom]
+    mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.zeros(9),
+                        np.array([1.0, 0.1, 0.1, 1.0], np.float32))
+    mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, 3.0, start, end)
+    # no model object behind it: segmentation reads it as such
+    g.objtype, g.objid, g.segid = mujoco.mjtObj.mjOBJ_UNKNOWN, -1, scene.ngeom
+    scene.ngeom += 1
+
+
 def shell_run():
   """(model, a stepper, seconds, view) of the shell at rest on its springs."""
   import mujoco
@@ -93,9 +115,10 @@ def shell_run():
       mujoco.mj_step(model, data)
     mujoco.mj_forward(model, data)
     return data
-  c = model.stat.center
-  return model, step_to, 0.5, View((float(c[0]), float(c[1]), float(c[2])),
-                                   1.6 * float(model.stat.extent), 140, -30)
+  # close and nearly level, so the 2-4 mm gap between the sensors and the facets shows
+  plate = model.geom("reflector_plate").pos
+  return model, step_to, 0.5, View((float(plate[0]), float(plate[1]), float(plate[2]) - 0.002),
+                                   0.08, 165, -4)
 
 
 def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
@@ -132,6 +155,8 @@ def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
     for t in times:
       data = step_to(t)
       renderer.update_scene(data, cam, opt)
+      if rig == "shell":
+        _beams(model, data, renderer.scene)
       yield t, renderer.render().copy(), renderer.scene
   finally:
     renderer.close()

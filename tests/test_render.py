@@ -55,3 +55,15 @@ def test_a_video_holds_the_frames_it_was_given(tmp_path):
   # lossy compression: each frame close to the one given, and the run moves between them
   assert np.abs(back.astype(float) - np.stack(shots)).mean() < 8
   assert np.abs(np.diff(np.stack(shots).astype(float), axis=0)).mean() > 0.1
+
+
+def test_the_shell_shows_each_photointerrupters_beam():
+  import mujoco
+  image, scene = _frame("shell")
+  beams = [g for g in scene.geoms[:scene.ngeom]
+           if g.type == mujoco.mjtGeom.mjGEOM_LINE and g.objid == -1]
+  assert len(beams) == 8
+  # a beam is as long as the sensor's ray to its facet: 2-4 mm, the sensors' window
+  assert all(1.5e-3 < g.size[2] < 4.5e-3 for g in beams), [g.size[2] for g in beams]
+  red = (image[..., 0] > 150) & (image[..., 1] < 80) & (image[..., 2] < 80)
+  assert red.sum() > 50
