@@ -181,6 +181,8 @@ def compare_lines(old: list[dict], new: list[dict], limit: int = 80) -> list[str
   before = {key(r): r["value"] for r in old}
   shared = [r for r in new if key(r) in before and
             not any(part.isdigit() for part in r["group"].split("/"))]
+  # the headline first: a benchmark's "results" (Table I's cells, say), then the rest
+  shared.sort(key=lambda r: r["group"].split("/")[0] != "results")
   if not shared:
     return ["no metric in common with the earlier run (another benchmark?)"]
   width = max(len(" ".join(p for p in key(r) if p)) for r in shared[:limit])

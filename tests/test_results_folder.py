@@ -102,3 +102,12 @@ def test_training_closes_its_progress_when_it_stops_early():
                   calls.append((d, t)))
   assert res.epochs < 200 and calls[-1] == (res.epochs, res.epochs)
   assert [d for d, _ in calls[:-1]] == list(range(1, res.epochs + 1))
+
+
+def test_compare_puts_the_headline_results_first():
+  old = [{"group": g, "method": "LS", "axis": "X", "metric": "rmse", "value": 1.0}
+         for g in ("timing", "results", "per_seed/0")]
+  new = [dict(r, value=2.0) for r in old]
+  lines = outputs.compare_lines(old, new)
+  assert lines[1].startswith("results LS X rmse") and lines[2].startswith("timing")
+  assert len(lines) == 3  # the per-seed row left out
