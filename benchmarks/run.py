@@ -37,8 +37,9 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
   parser = argparse.ArgumentParser(
       prog="python -m benchmarks.run", add_help=False,
       formatter_class=argparse.RawDescriptionHelpFormatter,
-      description="Run a named benchmark of the tactile-sensor testbench and write "
-                  "DIR/metrics.json. 'NAME --help' lists the settings NAME takes.",
+      description="Run a named benchmark of the tactile-sensor testbench and fill its "
+                  "results folder (table.md, metrics.csv/json, manifest.json, figures, "
+                  "predictions). 'NAME --help' lists the settings NAME takes.",
       epilog="benchmarks:\n" + "\n".join(f"  {n:20s} {b.description}"
                                          for n, b in benchmarks.items()))
   parser.add_argument("name", nargs="?", help="benchmark name (see --list)")

@@ -36,7 +36,8 @@ def _parser() -> argparse.ArgumentParser:
   parser = argparse.ArgumentParser(
       prog="python -m calibrate", formatter_class=argparse.RawDescriptionHelpFormatter,
       description="Fit, apply, score and export force estimators on CSV recordings.",
-      epilog="CSV layout:\n" + csvfile.__doc__.split("The layout", 1)[1].split("Every")[0])
+      epilog="CSV layout:\n" + "\n".join(
+          line for line in csvfile.__doc__.splitlines() if line.startswith("*")))
   sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
   p = sub.add_parser("fit", help="fit an estimator on a CSV recording")
   p.add_argument("--csv", required=True, type=pathlib.Path, help="training recording")

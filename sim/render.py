@@ -210,7 +210,7 @@ def main(argv: Optional[list[str]] = None) -> int:
   parser.add_argument("--out", type=pathlib.Path, default=None, help="PNG (default RIG.png)")
   parser.add_argument("--time", type=float, default=None,
                       help="simulated seconds before the picture (default: halfway along the "
-                           "footpad's path; 0.5 s for the shell)")
+                           "footpad's path; 0.25 s of settling for the shell)")
   parser.add_argument("--video", type=pathlib.Path, default=None,
                       help=f"also an MP4 of the whole run at {FPS} frames/s")
   parser.add_argument("--path", default="x_stroke", help="footpad: the paper's path to run")
