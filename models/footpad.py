@@ -135,6 +135,14 @@ class FootpadParams:
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     return np.stack([gx.ravel(), gy.ravel()], axis=1)
 
+  def quarter_turned(self) -> "FootpadParams":
+    """The same pad turned a quarter about Z on the rig: X and Y of the die layout, the
+    footprint and the element grid swapped. The paper gives a 2-by-3 array on a 32 mm by
+    39 mm board, not which way it faces the CNC's axes; the default has the three rows
+    along Y."""
+    return dataclasses.replace(self, die_x=self.die_y, die_y=self.die_x,
+                               footprint=self.footprint[::-1], grid=self.grid[::-1])
+
   def die_positions(self) -> np.ndarray:
     """(num_dies, 3) die centres in the carriage frame, m; dies ordered column-major (x, y)."""
     return np.array([(x, y, self.die_depth) for x in self.die_x for y in self.die_y])

@@ -121,3 +121,16 @@ def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corn
       assert most[m][ax]["r2_pct"] < paper < least[m][ax]["r2_pct"], (m, ax)
   for m in ("LS", "LSANN", "NN"):  # normal force stays estimated well at either corner
     assert most[m]["Z"]["r2_pct"] > 99.0 and least[m]["Z"]["r2_pct"] > 99.0, m
+
+
+def test_a_quarter_turn_swaps_the_layouts_axes_and_twice_is_none():
+  import numpy as np
+  from models.footpad import FootpadParams
+  p = FootpadParams()
+  t = p.quarter_turned()
+  assert t.footprint == p.footprint[::-1] and t.grid == p.grid[::-1]
+  # the same dies, their X and Y exchanged
+  assert sorted(map(tuple, t.die_positions()[:, [1, 0, 2]].tolist())) == \
+      sorted(map(tuple, p.die_positions().tolist()))
+  assert t.quarter_turned() == p
+  t.validate()

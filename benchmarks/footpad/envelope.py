@@ -34,6 +34,7 @@ same strokes leaves a median 3.35/1.86 %. No design estimates X better than Y.
 from __future__ import annotations
 
 import dataclasses
+import enum
 
 import numpy as np
 
@@ -60,6 +61,12 @@ SHEAR_R2 = "mean shear R2 % of the networks (X and Y; LSANN and NN-only)"
 LS_STROKES = "LS stroke NRMSE % (X and Y, fitted on the Z presses and X/Y strokes)"
 
 
+class Layout(enum.Enum):
+  """Which way the 2-by-3 die array faces the rig (`FootpadParams.quarter_turned`)."""
+  ASSUMED = "assumed"  # three rows along Y, the footpad's default
+  TURNED = "turned"  # three rows along X
+
+
 @fields.declared
 @dataclasses.dataclass(frozen=True)
 class Envelope:
@@ -68,9 +75,12 @@ class Envelope:
   Attributes:
     designs: Latin-hypercube draws over the sourced ranges.
     network_seeds: seeds per network and design (the paper's tables: medians over these).
+    layout: the die array as assumed (three rows along Y) or turned a quarter; the paper
+      does not say which.
   """
   designs: int = setting(32, "[2, 1000]")
   network_seeds: int = setting(2, "[1, 10]")
+  layout: Layout = Layout.ASSUMED
 
 
 def settings(quick: bool, seed: int) -> Envelope:
@@ -161,13 +171,17 @@ def run(ctx) -> dict:
   from sim.footpad import protocol, scene as scene_lib
   s = ctx.settings
   base = protocol.base(ctx.quick, ctx.seed)
+  if s.layout is Layout.TURNED:
+    base = dataclasses.replace(base, params=base.params.quarter_turned())
   rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
   units = latin_hypercube(s.designs, len(RANGES), rng)
   seeds = [int(x.generate_state(1)[0])
            for x in np.random.SeedSequence(ctx.seed, spawn_key=(12,)).spawn(s.network_seeds)]
   points = [{"base": scene_lib.FootpadScene.config(base), "values": design_values(u),
              "seeds": seeds} for u in units]
-  ctx.print(f"{s.designs} designs over {len(RANGES)} sourced ranges, "
+  layout = ("turned a quarter (three rows along X)" if s.layout is Layout.TURNED
+            else "as assumed (three rows along Y)")
+  ctx.print(f"{s.designs} designs over {len(RANGES)} sourced ranges, die array {layout}, "
             f"{'3' if ctx.quick else '16'} Z levels, {s.network_seeds} network seed(s) each; "
             f"executor {ctx.executor.kind}")
   results, failures, seconds = executors.run_designs(ctx, evaluate, points,
