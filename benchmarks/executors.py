@@ -138,9 +138,12 @@ def _keep_freed_memory() -> None:
 
 
 def _call(fn, point):
+  from benchmarks import outputs
   _keep_freed_memory()
   try:
-    return fn(point), None
+    with warnings.catch_warnings():  # a worker process: the command's filters are not here
+      outputs.quiet_out_of_range()
+      return fn(point), None
   except Exception:  # reported with the point, the sweep goes on
     return None, traceback.format_exc(limit=3)
 

@@ -26,6 +26,15 @@ LOCK = ".run.lock"
 TABLE = "table.md"  # the printed report of a run
 
 
+def quiet_out_of_range() -> None:
+  """Silences `calibrate.estimators.OutOfRangeWarning` in this process (inside a
+  `warnings.catch_warnings` block): benchmarks report the share of samples outside an
+  estimator's training range once (Table I) rather than a warning per prediction. Matched by
+  its text, so `--help` needs no JAX."""
+  import warnings
+  warnings.filterwarnings("ignore", message=".* outside the range this estimator")
+
+
 @dataclasses.dataclass
 class Lock:
   """This run's hold on a results folder."""

@@ -118,9 +118,7 @@ def main(argv: Optional[list[str]] = None) -> int:
   before, warnings.formatwarning = warnings.formatwarning, _warning_line
   try:
     with warnings.catch_warnings():
-      # an estimator's inputs outside its training range: the benchmarks report the share
-      # once (Table I) rather than a warning per prediction
-      warnings.filterwarnings("ignore", message=".* outside the range this estimator")
+      outputs.quiet_out_of_range()
       return _main(argv)
   except errors.UserError as err:  # the user's to fix (a setting, a file, --out): one line
     print(f"error: {err}", file=sys.stderr)
