@@ -10,7 +10,6 @@ metrics.json, metrics.csv, table.md, and the benchmark's predictions and figures
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import shlex
 import sys

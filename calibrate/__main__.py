@@ -133,7 +133,7 @@ def _inputs(est, table, what: str) -> np.ndarray:
   if names is None:
     raise errors.DataError(f"{what}: the estimator holds no input names (fitted before they "
                            f"were saved): fit it again")
-  return table.data[:, table.columns(list(names), f"--csv (the estimator's inputs)")]
+  return table.data[:, table.columns(list(names), "--csv (the estimator's inputs)")]
 
 
 def predict(args) -> int:

@@ -20,7 +20,7 @@ import dataclasses
 import os
 import pathlib
 import sys
-from typing import Callable, Iterator, Optional
+from typing import Iterator, Optional
 
 import numpy as np
 

@@ -124,7 +124,6 @@ def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corn
 
 
 def test_a_quarter_turn_swaps_the_layouts_axes_and_twice_is_none():
-  import numpy as np
   from models.footpad import FootpadParams
   p = FootpadParams()
   t = p.quarter_turned()

@@ -8,7 +8,6 @@ import pathlib
 import re
 import shlex
 
-import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()

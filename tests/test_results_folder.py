@@ -23,7 +23,7 @@ def test_the_folder_holds_manifest_metrics_csv_and_table(finished, capsys):
   manifest = json.loads((finished / "manifest.json").read_text())
   assert manifest["benchmark"] == "shell_geometry" and manifest["seed"] == 3
   assert manifest["settings"]["slope_x"] == "0.4"  # resolved, the override applied
-  assert manifest["command"].endswith(f"--set slope_x=0.4")
+  assert manifest["command"].endswith("--set slope_x=0.4")
   assert {"python", "mujoco", "numpy", "jax"} <= set(manifest["versions"])
   assert {"metrics.json", "metrics.csv", "table.md"} <= set(manifest["files"])
 

@@ -1,7 +1,6 @@
 """The rig's mechanics against closed-form references."""
 
 import dataclasses
-import math
 
 import mujoco
 import numpy as np

@@ -267,7 +267,7 @@ def _print_table(ctx, results, comparison, n_seeds, per_seed) -> None:
   ir = comparison["iteration_ratio_to_nn_val_mse"]
   ctx.print(f"LSANN/NN-only training time {comparison['time_ratio_lsann_over_nn']:.2f} "
             f"(paper {59.0 / 144.5:.2f})")
-  ctx.print(f"LSANN iterations to NN-only's final validation MSE / NN-only's: " +
+  ctx.print("LSANN iterations to NN-only's final validation MSE / NN-only's: " +
             (f"{ir:.2f}" if ir is not None else "never reached") +
             f" ({comparison['seeds_where_lsann_reached_nn_val_mse']}/{n_seeds} seeds; paper 0.41)")
   ctx.print(f"LSANN/NN-only iterations to the validation MSE both reach: "
