@@ -100,11 +100,18 @@ def fit(args) -> int:
   progress = None
   if not args.no_progress and sys.stderr.isatty():
     from tqdm import tqdm
-    bar = tqdm(desc="training", file=sys.stderr, leave=False)
+    bars = []
 
     def progress(done, total):
-      bar.total = total
-      bar.update(done - bar.n)
+      if not bars or done < bars[-1].n:  # an ensemble's next network starts again at 1
+        if bars:
+          bars[-1].close()
+        bars.append(tqdm(desc=f"training network {len(bars) + 1}/{args.ensemble}",
+                         file=sys.stderr, leave=False))
+      bars[-1].total = total
+      bars[-1].update(done - bars[-1].n)
+      if done == total:
+        bars[-1].close()
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
   est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
                        table.data[:, outs], config=config, seed=args.seed,
