@@ -335,17 +335,26 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     targets = forces - lin.predict(counts)
   seeds = [seed] if ensemble == 1 else [
       int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(ensemble)]
-  members, spreads = [], []
-  for k, member_seed in enumerate(seeds):
+  members = []
+  for member_seed in seeds:
     tr, va = split_validation(len(counts), val_fraction, member_seed, val_block)
     res = mlp.train(counts[tr], targets[tr], counts[va], targets[va], config, member_seed,
                     progress, snapshots=snapshots)
-    spreads.append(np.std(targets[va] - res.net.predict(counts[va]), axis=0))
-    members.append(Estimator(kind, lin, res.net, res))
-  sd = np.sqrt(np.mean(np.square(spreads), axis=0))
-  if ensemble == 1:
-    return dataclasses.replace(members[0], info=info(sd))
-  return Estimator(kind, info=info(sd), members=tuple(members))
+    sd = np.std(targets[va] - res.net.predict(counts[va]), axis=0)
+    members.append(Estimator(kind, lin, res.net, res, info(sd)))
+  return members[0] if ensemble == 1 else combine(members)
+
+
+def combine(members: Sequence[Estimator]) -> Estimator:
+  """Fitted estimators of one kind (networks from several seeds) as one ensemble: it predicts
+  their mean, and its residual spread is the root mean square of theirs. Each member needs
+  its `info` (every `fit` gives one); the ensemble's is the first member's otherwise."""
+  members = tuple(members)
+  first = members[0].info
+  spread = np.sqrt(np.mean([m.info.residual_sd ** 2 for m in members], axis=0))
+  info = dataclasses.replace(first, residual_sd=spread,
+                             settings={**first.settings, "ensemble": len(members)})
+  return Estimator(members[0].kind, info=info, members=members)
 
 
 def at_epoch_cap(est: Estimator, cap: int) -> Estimator:

@@ -105,10 +105,7 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
     per_seed.append(row)
 
   for m in ("LSANN", "NN"):  # the seeds as one estimator: their mean and spread
-    first = fitted[m][0].info
-    spread = np.sqrt(np.mean([e.info.residual_sd ** 2 for e in fitted[m]], axis=0))
-    estimators.Estimator(estimators.Kind(m), info=dataclasses.replace(first, residual_sd=spread),
-                         members=tuple(fitted[m])).save(est_dir / f"{m}_ensemble.npz")
+    estimators.combine(fitted[m]).save(est_dir / f"{m}_ensemble.npz")
   results = {"LS": {**metrics.summary(ls.predict(test.counts), truth, AXES),
                     "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
   for m in ("LSANN", "NN"):
