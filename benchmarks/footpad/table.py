@@ -82,6 +82,7 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
   ls.save(est_dir / "LS.npz")
   per_seed = []
   fitted = {"LS": [ls], "LSANN": [], "NN": []}
+  on_test = {"LS": [ls.predict(test.counts)], "LSANN": [], "NN": []}  # per seed, (N, 3) N
   for k, seed in enumerate(child):
     row, trained = {"seed": seed}, {}
     for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
@@ -90,8 +91,9 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
                            **names)
       est.save(est_dir / f"{kind.value}_seed{k}.npz")
       fitted[kind.value].append(est)
+      on_test[kind.value].append(est.predict(test.counts))
       tr = trained[kind.value] = est.training
-      row[kind.value] = {"test": metrics.summary(est.predict(test.counts), truth, AXES),
+      row[kind.value] = {"test": metrics.summary(on_test[kind.value][-1], truth, AXES),
                          "train": {"seconds": tr.seconds, "compile_seconds": tr.compile_seconds,
                                    "iterations": tr.epochs, "best_epoch": tr.best_epoch,
                                    "stop": tr.stop.name, "final_val_mse": tr.best_val_mse}}
@@ -106,7 +108,7 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
 
   for m in ("LSANN", "NN"):  # the seeds as one estimator: their mean and spread
     estimators.combine(fitted[m]).save(est_dir / f"{m}_ensemble.npz")
-  results = {"LS": {**metrics.summary(ls.predict(test.counts), truth, AXES),
+  results = {"LS": {**metrics.summary(on_test["LS"][0], truth, AXES),
                     "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
   for m in ("LSANN", "NN"):
     results[m] = {ax: {key: float(np.median([r[m]["test"][ax][key] for r in per_seed]))
@@ -135,7 +137,7 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
   ctx.print("test samples with counts outside the training range: " + ", ".join(
       f"{m} {v:.1%}" for m, v in outside.items()) + f" (LS is fitted on the Z presses and "
       f"strokes, the networks on {', '.join(nn_paths)}: outside, they extrapolate)")
-  _predictions_and_figures(ctx, recs["train"], test, fitted)
+  _predictions_and_figures(ctx, recs["train"], test, on_test)
   general = _generalisation(ctx, fitted)
   blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
   return {"results": results, "LS_train": ls_train, "per_seed": per_seed,
@@ -147,14 +149,15 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
           "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
 
 
-def _predictions_and_figures(ctx, train, test, fitted: dict) -> None:
+def _predictions_and_figures(ctx, train, test, on_test: dict) -> None:
   """DIR/predictions.npz (the test truth, each method's prediction from the first seed, and
-  the spread of the networks' seeds per sample, float32) and the paper's Figs. 5 and 7."""
+  the spread of the networks' seeds per sample, float32) and the paper's Figs. 5 and 7;
+  `on_test` holds each method's test predictions per seed."""
   from benchmarks import figures, outputs
   truth = test.wrench[:, :3]
-  preds = {m: fitted[m][0].predict(test.counts) for m in METHODS}
-  spread = {f"spread_{m}": np.std([e.predict(test.counts) for e in fitted[m]], axis=0)
-            .astype(np.float32) for m in ("LSANN", "NN")}
+  preds = {m: on_test[m][0] for m in METHODS}
+  spread = {f"spread_{m}": np.std(on_test[m], axis=0).astype(np.float32)
+            for m in ("LSANN", "NN")}
   dt = float(np.median(np.diff(train.time[:100])))
   clock = np.arange(len(test)) * dt  # the test samples end to end, s
   outputs.write_predictions(ctx.out, truth.astype(np.float32),
