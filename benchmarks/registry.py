@@ -68,29 +68,40 @@ class Context:
     print(text, flush=True)
 
   def progress(self, label: str) -> Optional[Progress]:
-    """A progress callback for library code: a bar on a terminal; piped or in CI, one line
-    when the stage ends (its count and seconds), so logs stay readable."""
-    if not self.show_progress:
-      return None
-    stream = sys.stderr
-    if not (hasattr(stream, "isatty") and stream.isatty()):
-      t0 = time.perf_counter()
+    """A progress callback for library code (`progress_bar`), None with --no-progress."""
+    return progress_bar(label) if self.show_progress else None
 
-      def line(done: int, total: int) -> None:
-        if done == total:
-          print(f"{label}: {total} done in {time.perf_counter() - t0:.1f} s", file=stream,
-                flush=True)
-      return line
-    from tqdm import tqdm
-    bar = {}
 
-    def update(done: int, total: int) -> None:
-      if "b" not in bar:
-        bar["b"] = tqdm(total=total, desc=label, file=stream, leave=False)
-      bar["b"].update(done - bar["b"].n)
+def progress_bar(label: str) -> Progress:
+  """A progress callback: a bar on a terminal; piped or in CI, one line when the stage ends
+  (its count and seconds), so logs stay readable. A count that starts again (the next
+  network of an ensemble) is a new stage."""
+  stream = sys.stderr
+  tty = hasattr(stream, "isatty") and stream.isatty()
+  state = {"last": None, "t0": 0.0, "bar": None, "stages": 0}
+
+  def update(done: int, total: int) -> None:
+    if state["last"] is None or done < state["last"]:  # a new stage
+      state["stages"] += 1
+      state["t0"] = time.perf_counter()
+      name = label if state["stages"] == 1 else f"{label} ({state['stages']})"
+      if tty:
+        from tqdm import tqdm
+        if state["bar"] is not None:
+          state["bar"].close()
+        state["bar"] = tqdm(total=total, desc=name, file=stream, leave=False)
+      state["name"] = name
+    state["last"] = done
+    if tty:
+      bar = state["bar"]
+      bar.total = total
+      bar.update(done - bar.n)
       if done == total:
-        bar["b"].close()
-    return update
+        bar.close()
+    elif done == total:
+      print(f"{state['name']}: {total} done in {time.perf_counter() - state['t0']:.1f} s",
+            file=stream, flush=True)
+  return update
 
 
 @dataclasses.dataclass(frozen=True)

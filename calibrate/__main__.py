@@ -97,21 +97,8 @@ def fit(args) -> int:
   if set(ins) & set(outs):
     raise errors.SettingError("--inputs and --targets share columns: "
                               + ", ".join(table.names[i] for i in set(ins) & set(outs)))
-  progress = None
-  if not args.no_progress and sys.stderr.isatty():
-    from tqdm import tqdm
-    bars = []
-
-    def progress(done, total):
-      if not bars or done < bars[-1].n:  # an ensemble's next network starts again at 1
-        if bars:
-          bars[-1].close()
-        bars.append(tqdm(desc=f"training network {len(bars) + 1}/{args.ensemble}",
-                         file=sys.stderr, leave=False))
-      bars[-1].total = total
-      bars[-1].update(done - bars[-1].n)
-      if done == total:
-        bars[-1].close()
+  from benchmarks import registry
+  progress = None if args.no_progress else registry.progress_bar("training")
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
   est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
                        table.data[:, outs], config=config, seed=args.seed,
