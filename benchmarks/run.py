@@ -89,6 +89,13 @@ def _format(value) -> str:
   return str(getattr(value, "value", value))
 
 
+def _resolved(applied, fixed=None) -> dict[str, str]:
+  """{key: value as --set would take it} for every setting of `applied` (`fixed` keys left
+  out)."""
+  from sim import settings
+  return {k.name: _format(k.default) for k in settings.keys(applied, fixed)}
+
+
 def benchmark_help(bench: registry.Benchmark, quick: bool, seed: int) -> str:
   """NAME --help: what the benchmark does and every key --set takes."""
   from sim import settings
@@ -171,8 +178,8 @@ def _main(argv: Optional[list[str]]) -> int:
     parser.error("--address joins a Dask scheduler: add --executor dask")
   out = args.out or pathlib.Path("results") / (args.name + ("-quick" if args.quick else ""))
   if args.check:
-    for k in settings.keys(applied, bench.fixed):
-      print(f"{k.name} = {_format(k.default)}")
+    for name, value in _resolved(applied, bench.fixed).items():
+      print(f"{name} = {value}")
     print(f"ok: {args.name} would write to {out}/")
     return 0
   earlier = None
@@ -217,11 +224,10 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   command = "python -m benchmarks.run " + shlex.join(argv)
   files.write_text(out / outputs.TABLE, f"# {args.name}\n\n{bench.description}\n\n"
                    f"`{command}` (seed {args.seed})\n\n```\n" + "\n".join(ctx.lines) + "\n```\n")
-  from sim import recording, settings
-  resolved = {k.name: _format(k.default) for k in settings.keys(applied)}
+  from sim import recording
   manifest = {
       "benchmark": args.name, "command": command, "seed": args.seed, "quick": args.quick,
-      "overrides": overrides, "settings": resolved,
+      "overrides": overrides, "settings": _resolved(applied),
       "effects": list(getattr(applied, "effects", ()) or ()),
       "versions": outputs.versions(), "git_commit": outputs.git_commit(),
       "recordings": recording.used_stems(), "cache_dir": str(cache.cache_dir()),

@@ -184,8 +184,8 @@ def evaluate(args) -> int:
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)
   files.write_text(out / "metrics.json", text)
-  files.write_text(out / "metrics.csv", outputs.csv_text(outputs.metric_rows(
-      {"results": files.from_json(text)["results"]})))
+  files.write_text(out / "metrics.csv",
+                   outputs.csv_text(outputs.metric_rows({"results": result})))
   t = table.column(args.time_column)
   t = np.arange(len(x), dtype=float) if t is None else t
   label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"

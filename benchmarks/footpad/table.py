@@ -49,9 +49,9 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
   Table I against the paper's (and, once, the share of test samples outside each
   estimator's training range, in place of a warning per prediction)."""
   import warnings
-  from calibrate import estimators
+  from benchmarks import outputs
   with warnings.catch_warnings():
-    warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+    outputs.quiet_out_of_range()
     return _run_table(ctx, nn_paths, seeds)
 
 
