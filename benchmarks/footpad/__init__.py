@@ -20,3 +20,10 @@ def recordings(ctx, base=None) -> dict:
   from sim.footpad import protocol, scene
   return {name: scene.generate(s, ctx.progress(f"footpad {name} episodes"), ctx.use_cache)
           for name, s in protocol.scenes(ctx.settings if base is None else base).items()}
+
+
+def clock(rec):
+  """(N,) s: a footpad recording's samples laid end to end at the scene's time step, so time
+  increases across episodes (each episode's own `time` starts again at 0)."""
+  import numpy as np
+  return np.arange(len(rec)) * float(rec.meta["config"]["params"]["timestep"])

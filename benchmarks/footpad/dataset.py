@@ -77,7 +77,6 @@ def _slip_table(ctx, rec) -> list[dict]:
   return rows
 
 
-
 EXAMPLE_STEP = 20  # every 20th sample of 1 kHz: a 50 Hz example small enough to ship
 
 
@@ -87,8 +86,7 @@ def recording_csv(rec, path, step: int = 1):
   Fx, Fy, Fz (N); every `step`-th sample."""
   from calibrate import csvfile
   keep = np.arange(0, len(rec), step)
-  dt = float(np.median(np.diff(rec.time[:100])))
-  t = keep * dt
+  t = footpad.clock(rec)[keep]
   d = rec.counts.shape[1]
   names = ["time"] + [f"p{i + 1}" for i in range(d)] + ["Fx", "Fy", "Fz"]
   units = ["s"] + ["counts"] * d + ["N"] * 3

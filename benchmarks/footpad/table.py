@@ -158,8 +158,7 @@ def _predictions_and_figures(ctx, train, test, on_test: dict) -> None:
   preds = {m: on_test[m][0] for m in METHODS}
   spread = {f"spread_{m}": np.std(on_test[m], axis=0).astype(np.float32)
             for m in ("LSANN", "NN")}
-  dt = float(np.median(np.diff(train.time[:100])))
-  clock = np.arange(len(test)) * dt  # the test samples end to end, s
+  clock = footpad.clock(test)
   outputs.write_predictions(ctx.out, truth.astype(np.float32),
                             {m: p.astype(np.float32) for m, p in preds.items()}, AXES, "N",
                             time=clock, episode=test.episode, **spread)
