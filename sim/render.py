@@ -121,15 +121,21 @@ def shell_run():
                                    0.08, 165, -4)
 
 
-def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
-           path: str = "x_stroke", z: float = 1e-3, segmentation: bool = False
-           ) -> Iterator[tuple[float, np.ndarray, object]]:
-  """(time, image, renderer scene) at each of `times` (s, increasing): RGB (H, W, 3) uint8,
-  or with `segmentation` (H, W, 2) int32 of object id and type per pixel."""
-  import mujoco
+def rig_run(rig: str, path: str = "x_stroke", z: float = 1e-3):
+  """`footpad_run(path, z)` or `shell_run()` by the rig's name."""
   if rig not in RIGS:
     raise errors.SettingError(f"rig {rig!r} is unknown: allowed {', '.join(RIGS)}")
-  model, step_to, _, view = footpad_run(path, z) if rig == "footpad" else shell_run()
+  return footpad_run(path, z) if rig == "footpad" else shell_run()
+
+
+def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
+           path: str = "x_stroke", z: float = 1e-3, segmentation: bool = False,
+           run=None) -> Iterator[tuple[float, np.ndarray, object]]:
+  """(time, image, renderer scene) at each of `times` (s, increasing): RGB (H, W, 3) uint8,
+  or with `segmentation` (H, W, 2) int32 of object id and type per pixel. `run` is a
+  `rig_run` not yet stepped past times[0] (built here when None)."""
+  import mujoco
+  model, step_to, _, view = run or rig_run(rig, path, z)
   width, height = size
   if not (16 <= width <= model.vis.global_.offwidth and 16 <= height <= model.vis.global_.offheight):
     raise errors.SettingError(f"image size {width}x{height} is out of range: allowed 16 to "
@@ -223,13 +229,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     except ValueError:
       raise errors.SettingError(f"--size {args.size!r} is not WxH (e.g. 640x480)") from None
     kw = dict(size=(width, height), path=args.path, z=args.z * 1e-3)
-    _, _, seconds, _ = footpad_run(args.path, args.z * 1e-3) if args.rig == "footpad" else \
-        shell_run()
+    run = rig_run(args.rig, args.path, args.z * 1e-3)
+    seconds = run[2]
     t = seconds / 2 if args.time is None else args.time
     if not 0 <= t <= seconds:
       raise errors.SettingError(f"--time {t:g} is out of range: allowed 0 to {seconds:g} s "
                                 f"for this run")
-    (_, image, _), = frames(args.rig, [t], **kw)
+    (_, image, _), = frames(args.rig, [t], **kw, run=run)
     out = save_png(image, args.out or pathlib.Path(f"{args.rig}.png"))
     print(f"wrote {out} ({args.rig} at t = {t:.3f} s)")
     if args.video is not None:

@@ -29,7 +29,7 @@ def test_the_rig_is_lit_not_blank(rig):
 def test_the_rigs_pixels_are_where_its_geometry_projects(rig, body):
   import mujoco
   seg, scene = _frame(rig, segmentation=True)
-  model, step_to, _, _ = render.footpad_run() if rig == "footpad" else render.shell_run()
+  model, step_to, _, _ = render.rig_run(rig)
   data = step_to(0.3)
   ids = [g for g in range(model.ngeom)
          if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g]) == body]
