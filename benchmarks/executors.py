@@ -33,7 +33,7 @@ import traceback
 import warnings
 from typing import Any, Callable, Iterator, Literal, Optional
 
-from models import errors, files
+from util import errors, files
 
 Point = dict[str, Any]
 Progress = Callable[[int, int], None]

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from models import errors, files
+from util import errors, files
 
 LOCK = ".run.lock"
 TABLE = "table.md"  # the printed report of a run

@@ -14,11 +14,10 @@ import pathlib
 import shlex
 import sys
 import time
-import traceback
 from typing import Optional
 
 from benchmarks import executors, outputs, registry
-from models import errors, files
+from util import cli, errors, files
 
 
 def _parse_sets(items: list[str]) -> dict[str, str]:
@@ -113,39 +112,18 @@ def benchmark_help(bench: registry.Benchmark, quick: bool, seed: int) -> str:
   return "\n".join(lines)
 
 
-def _warning_line(message, category, filename, lineno, line=None) -> str:
-  """Warnings as one line each (not the source line that raised them): the command's output
-  is read by people, not debuggers."""
-  return f"warning: {message}\n"
-
-
 def main(argv: Optional[list[str]] = None) -> int:
   import warnings
-  before, warnings.formatwarning = warnings.formatwarning, _warning_line
-  try:
+
+  def body() -> int:
     with warnings.catch_warnings():
       outputs.quiet_out_of_range()
       return _main(argv)
-  except errors.UserError as err:  # the user's to fix (a setting, a file, --out): one line
-    print(f"error: {err}", file=sys.stderr)
-    return 2
-  except Exception:  # a bug before the results folder was known (a run's own are in _run)
-    from sim import cache
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    return internal_error(cache.cache_dir() / "tracebacks" / f"{stamp}.txt")
-  finally:
-    warnings.formatwarning = before
+  return cli.run(body, "benchmarks.run", INTERRUPTED)
 
 
-def internal_error(path: pathlib.Path) -> int:
-  """Saves the traceback being handled to `path` and says so in two lines; exit code 3."""
-  path.parent.mkdir(parents=True, exist_ok=True)
-  files.write_text(path, traceback.format_exc())
-  kind, value = sys.exc_info()[:2]
-  print(f"internal error (a bug in the testbench, not in your settings): {kind.__name__}: "
-        f"{value}\n  the traceback is in {path}; please report it with that file",
-        file=sys.stderr)
-  return 3
+INTERRUPTED = ("interrupted: finished points and cached recordings are kept; rerun the same "
+               "command to go on")
 
 
 def _main(argv: Optional[list[str]]) -> int:
@@ -162,7 +140,7 @@ def _main(argv: Optional[list[str]]) -> int:
   if not args.name:
     parser.error("a benchmark name is required (see --list)")
   if args.name not in benchmarks:
-    parser.error(f"unknown benchmark {args.name!r}: allowed {', '.join(benchmarks)}")
+    raise errors.unknown("benchmark", args.name, benchmarks, "python -m benchmarks.run --list")
   if args.seed < 0:
     parser.error(f"--seed {args.seed} is out of range: allowed integers >= 0")
   bench = benchmarks[args.name]
@@ -209,11 +187,10 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   except errors.UserError:
     raise  # one line, from main
   except KeyboardInterrupt:
-    print("interrupted: finished points and cached recordings are kept; rerun the same "
-          "command to go on", file=sys.stderr)
-    return 130
-  except Exception:  # not the user's mistake: a short message and the saved traceback
-    return internal_error(out / "traceback.txt")
+    print(INTERRUPTED, file=sys.stderr)
+    return cli.INTERRUPTED
+  except Exception:  # not the user's mistake: a short message, the traceback in the results
+    return cli.internal_error(out / "traceback.txt")
   wall = time.perf_counter() - t0
   metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
              "settings": overrides, "wall_seconds": wall, **result}

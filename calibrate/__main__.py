@@ -4,15 +4,14 @@
   python -m calibrate predict estimator.npz --csv new.csv [--std] [--out predictions.csv]
   python -m calibrate evaluate estimator.npz --csv test.csv [--out DIR]
   python -m calibrate export estimator.npz --c OUT_DIR
-  python -m calibrate example DIR [--simulate]
+  python -m calibrate example DIR
 
 The CSV layout is `calibrate.csvfile`'s: a header row of names, an optional units row, one
 row per sample, an increasing `time` column if any. Mistakes in the files or the arguments
 print one line starting `error:` and exit with code 2.
 
-This module is a command at the report end of the data flow, like `benchmarks.run`: it may
-use `benchmarks` (figures, the results table) and `sim` (the example), which the library
-modules of `calibrate` never import.
+Like every module of `calibrate`, this command imports nothing from `sim` or `benchmarks`:
+it serves recordings from any rig.
 """
 
 from __future__ import annotations
@@ -24,7 +23,7 @@ from typing import Optional
 
 import numpy as np
 
-from models import errors, files
+from util import cli, errors, files
 
 METHODS = ("ls", "poly", "lsann", "nn")
 # median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
@@ -77,11 +76,13 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
   p.add_argument("--c", dest="c_dir", required=True, type=pathlib.Path,
                  help="folder for estimator.h and estimator.c")
-  p = sub.add_parser("example", help="write the example recordings (the simulated footpad)")
+  p = sub.add_parser("example", help="write the example recordings (the simulated footpad)",
+                     description="Copies the example recordings shipped with the package: the "
+                                 "simulated footpad's quick protocol at seed 0, every 20th "
+                                 "sample. 'python -m benchmarks.run footpad_dataset --quick' "
+                                 "writes them afresh from the simulator, to its results "
+                                 "folder's csv/.")
   p.add_argument("out", type=pathlib.Path, help="folder for train.csv and test.csv")
-  p.add_argument("--simulate", action="store_true",
-                 help="write them afresh from the simulator (quick protocol, seed 0) instead "
-                      "of copying the files shipped with the package")
   return parser
 
 
@@ -97,8 +98,8 @@ def fit(args) -> int:
   if set(ins) & set(outs):
     raise errors.SettingError("--inputs and --targets share columns: "
                               + ", ".join(table.names[i] for i in set(ins) & set(outs)))
-  from benchmarks import registry
-  progress = None if args.no_progress else registry.progress_bar("training")
+  from util.progress import progress_bar
+  progress = None if args.no_progress else progress_bar("training")
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
   est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
                        table.data[:, outs], config=config, seed=args.seed,
@@ -162,8 +163,7 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
 
 
 def evaluate(args) -> int:
-  from benchmarks import figures, outputs
-  from calibrate import csvfile, estimators
+  from calibrate import csvfile, estimators, figures, metrics as metrics_lib
   est = estimators.Estimator.load(args.estimator)
   table = csvfile.read(args.csv, args.time_column)
   x = _inputs(est, table, "evaluate")
@@ -184,8 +184,8 @@ def evaluate(args) -> int:
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)
   files.write_text(out / "metrics.json", text)
-  files.write_text(out / "metrics.csv",
-                   outputs.csv_text(outputs.metric_rows({"results": result})))
+  files.write_text(out / "metrics.csv", metrics_lib.csv_text(
+      [r for n in names for r in metrics_lib.rows({n: result[n]}, est.kind.value)]))
   t = table.column(args.time_column)
   t = np.arange(len(x), dtype=float) if t is None else t
   label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
@@ -210,39 +210,21 @@ EXAMPLES = pathlib.Path(__file__).parent / "examples"
 
 
 def example(args) -> int:
-  if args.simulate:
-    from benchmarks.footpad import dataset
-    written = dataset.example_csv(args.out)
-  else:
-    args.out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name in ("train.csv", "test.csv"):
-      files.write_text(args.out / name, (EXAMPLES / name).read_text())
-      written.append(args.out / name)
+  args.out.mkdir(parents=True, exist_ok=True)
+  written = []
+  for name in ("train.csv", "test.csv"):
+    files.write_text(args.out / name, (EXAMPLES / name).read_text())
+    written.append(args.out / name)
   for path in written:
     print(f"wrote {path}")
   return 0
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-  import warnings
   args = _parser().parse_args(argv)
-  before = warnings.formatwarning
-  warnings.formatwarning = lambda message, *rest, **kw: f"warning: {message}\n"
-  try:
-    return {"fit": fit, "predict": predict, "evaluate": evaluate, "export": export,
-            "example": example}[args.command](args)
-  except errors.UserError as err:
-    print(f"error: {err}", file=sys.stderr)
-    return 2
-  except Exception:  # a bug, not the user's mistake: two lines and the saved traceback
-    import time
-    from benchmarks import run
-    from sim import cache
-    stamp = time.strftime("%Y%m%d-%H%M%S")
-    return run.internal_error(cache.cache_dir() / "tracebacks" / f"calibrate-{stamp}.txt")
-  finally:
-    warnings.formatwarning = before
+  command = {"fit": fit, "predict": predict, "evaluate": evaluate, "export": export,
+             "example": example}[args.command]
+  return cli.run(lambda: command(args), "calibrate", "interrupted: nothing was written")
 
 
 if __name__ == "__main__":

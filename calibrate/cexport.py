@@ -30,7 +30,7 @@ import pathlib
 
 import numpy as np
 
-from models import errors, files
+from util import errors, files
 
 
 @dataclasses.dataclass(frozen=True)

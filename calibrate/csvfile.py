@@ -22,7 +22,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from models import errors, files
+from util import errors, files
 
 
 @dataclasses.dataclass(frozen=True)

@@ -19,7 +19,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from calibrate import linear, mlp
-from models import errors, files
+from util import errors, files
 
 
 class Kind(enum.Enum):

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg
 import scipy.linalg.lapack
 
-from models import errors
+from util import errors
 
 
 class Method(enum.Enum):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 
@@ -61,3 +63,55 @@ def summary(pred: np.ndarray, truth: np.ndarray, axes, threshold: float = 0.2) -
           "r2_pct": r2_pct(pred, truth), "median_pct": median_pct_error(pred, truth, threshold),
           "worst_pct": worst_pct_of_range(pred, truth)}
   return {ax: {k: float(v[i]) for k, v in cols.items()} for i, ax in enumerate(axes)}
+
+
+# ---- the results table: one row per number (metrics.csv) -----------------------------------
+
+COLUMNS = ("group", "method", "axis", "metric", "value")
+
+
+@dataclasses.dataclass(frozen=True)
+class Row:
+  """One number of a results table (a line of metrics.csv).
+
+  Attributes:
+    group: where in the run the number belongs ("results", "generalisation", "design/3"...).
+    method: the calibrator it scores (LS, LSANN...), "" for a number of no method.
+    axis: the output it scores (X, Fz...), "" for a number of no axis.
+    metric: what it is (rmse, r2_pct, seconds...).
+    value: the number (NaN where it is undefined).
+  """
+  group: str
+  method: str
+  axis: str
+  metric: str
+  value: float
+
+
+def rows(scores: dict, method: str, group: str = "results") -> list[Row]:
+  """The rows of one method's `summary` ({axis: {metric: value}})."""
+  return [Row(group, method, axis, metric, float(v))
+          for axis, per in scores.items() for metric, v in per.items()]
+
+
+def csv_text(table: list[Row]) -> str:
+  """metrics.csv's text: a header of `COLUMNS`, then a line per row (values as repr, so
+  they read back to the same float)."""
+  import csv
+  import io
+  buf = io.StringIO()
+  writer = csv.writer(buf, lineterminator="\n")
+  writer.writerow(COLUMNS)
+  writer.writerows((r.group, r.method, r.axis, r.metric, repr(float(r.value))) for r in table)
+  return buf.getvalue()
+
+
+def read_csv(path) -> list[Row]:
+  """The rows of a metrics.csv; ValueError saying why when it is not such a table."""
+  import csv
+  with open(path, newline="") as f:
+    reader = csv.DictReader(f)
+    if tuple(reader.fieldnames or ()) != COLUMNS:
+      raise ValueError(f"its columns are {reader.fieldnames}, not {', '.join(COLUMNS)}")
+    return [Row(r["group"], r["method"], r["axis"], r["metric"], float(r["value"]))
+            for r in reader]

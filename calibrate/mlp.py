@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from calibrate import linear
-from models import errors
+from util import errors
 
 
 

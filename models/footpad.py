@@ -22,8 +22,10 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from models import fields, lighting
-from models.fields import setting
+from models import lighting
+
+from util import fields
+from util.fields import setting
 
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
 AXES = ("x", "y", "z")

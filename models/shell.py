@@ -21,8 +21,10 @@ import math
 import mujoco
 import numpy as np
 
-from models import fields, lighting
-from models.fields import setting
+from models import lighting
+
+from util import fields
+from util.fields import setting
 
 
 @fields.declared

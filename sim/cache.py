@@ -13,13 +13,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from models import files
+from util import files
 
 
-def cache_dir() -> pathlib.Path:
-  """Root of the on-disk cache: $TESTBENCH_CACHE or ~/.cache/footpad-testbench."""
-  root = os.environ.get("TESTBENCH_CACHE")
-  return pathlib.Path(root) if root else pathlib.Path.home() / ".cache" / "footpad-testbench"
+cache_dir = files.cache_dir
 
 
 def content_key(config: dict[str, Any]) -> str:

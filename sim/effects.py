@@ -16,7 +16,7 @@ import zlib
 
 import numpy as np
 
-from models import errors
+from util import errors
 
 
 class Kind(enum.Enum):

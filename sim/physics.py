@@ -15,7 +15,7 @@ from typing import Optional, Sequence
 import mujoco
 import numpy as np
 
-from models.errors import SimulationError
+from util.errors import SimulationError
 
 # warnings after which the recorded state is not the physics of the scene
 DIVERGED = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,

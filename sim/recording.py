@@ -17,7 +17,7 @@ from typing import Any, Callable, Optional
 
 import numpy as np
 
-from models import errors, files
+from util import errors, files
 from sim import cache
 
 _REQUIRED = ("time", "counts", "wrench", "episode")

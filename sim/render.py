@@ -24,7 +24,7 @@ from typing import Iterator, Optional
 
 import numpy as np
 
-from models import errors
+from util import cli, errors
 
 RIGS = ("footpad", "shell")
 FPS = 30
@@ -223,28 +223,28 @@ def main(argv: Optional[list[str]] = None) -> int:
   parser.add_argument("--z", type=float, default=1.0, help="footpad: depth, mm (default 1)")
   parser.add_argument("--size", default="640x480", help="image size WxH, px (640x480)")
   args = parser.parse_args(argv)
+  return cli.run(lambda: _render(args), "sim.render")
+
+
+def _render(args) -> int:
   try:
-    try:
-      width, height = (int(v) for v in args.size.lower().split("x"))
-    except ValueError:
-      raise errors.SettingError(f"--size {args.size!r} is not WxH (e.g. 640x480)") from None
-    kw = dict(size=(width, height), path=args.path, z=args.z * 1e-3)
-    run = rig_run(args.rig, args.path, args.z * 1e-3)
-    seconds = run[2]
-    t = seconds / 2 if args.time is None else args.time
-    if not 0 <= t <= seconds:
-      raise errors.SettingError(f"--time {t:g} is out of range: allowed 0 to {seconds:g} s "
-                                f"for this run")
-    (_, image, _), = frames(args.rig, [t], **kw, run=run)
-    out = save_png(image, args.out or pathlib.Path(f"{args.rig}.png"))
-    print(f"wrote {out} ({args.rig} at t = {t:.3f} s)")
-    if args.video is not None:
-      times = list(np.arange(0.0, seconds, 1.0 / FPS))
-      video = save_video((im for _, im, _ in frames(args.rig, times, **kw)), args.video)
-      print(f"wrote {video} ({len(times)} frames, {seconds:.2f} s)")
-  except errors.UserError as err:
-    print(f"error: {err}", file=sys.stderr)
-    return 2
+    width, height = (int(v) for v in args.size.lower().split("x"))
+  except ValueError:
+    raise errors.SettingError(f"--size {args.size!r} is not WxH (e.g. 640x480)") from None
+  kw = dict(size=(width, height), path=args.path, z=args.z * 1e-3)
+  run = rig_run(args.rig, args.path, args.z * 1e-3)
+  seconds = run[2]
+  t = seconds / 2 if args.time is None else args.time
+  if not 0 <= t <= seconds:
+    raise errors.SettingError(f"--time {t:g} is out of range: allowed 0 to {seconds:g} s "
+                              f"for this run")
+  (_, image, _), = frames(args.rig, [t], **kw, run=run)
+  out = save_png(image, args.out or pathlib.Path(f"{args.rig}.png"))
+  print(f"wrote {out} ({args.rig} at t = {t:.3f} s)")
+  if args.video is not None:
+    times = list(np.arange(0.0, seconds, 1.0 / FPS))
+    video = save_video((im for _, im, _ in frames(args.rig, times, **kw)), args.video)
+    print(f"wrote {video} ({len(times)} frames, {seconds:.2f} s)")
   return 0
 
 

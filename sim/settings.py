@@ -1,7 +1,7 @@
 """`key=value` settings (the command's --set) applied to the declared dataclasses of any scene.
 
 Keys name fields, with dots into nested dataclasses (params.friction=0.8). Each value is read
-as the field's annotation says (`models.fields`): numbers, integers, booleans (true/false,
+as the field's annotation says (`util.fields`): numbers, integers, booleans (true/false,
 1/0, yes/no, on/off), comma-separated tuples (pairs separated by ";", e.g.
 spring_xy=0.03,0.02;-0.03,0.02;0.03,-0.02), `Literal` choices, enums by value, "none" for
 an optional field. Every value is then checked against the field's declared range, and the
@@ -16,7 +16,7 @@ import enum
 import typing
 from typing import Any, Mapping
 
-from models import errors, fields
+from util import errors, fields
 
 _TRUE = ("true", "1", "yes", "on")
 _FALSE = ("false", "0", "no", "off")
@@ -45,7 +45,7 @@ def apply(obj: Any, overrides: Mapping[str, str],
   """A copy of the dataclass `obj` with the settings applied and checked.
 
   Args:
-    obj: a declared dataclass (`models.fields.declared`).
+    obj: a declared dataclass (`util.fields.declared`).
     overrides: {key: text}.
     fixed: keys the caller sets itself, with the reason; setting one is refused.
   Raises:

@@ -12,7 +12,7 @@ import pytest
 from calibrate import __main__ as cli
 from calibrate import cexport, csvfile, estimators, metrics, mlp
 from calibrate.sklearn_api import ForceCalibrator
-from models import errors
+from util import errors
 
 FAST = mlp.LMConfig(hidden=6, epochs=8)
 
@@ -208,8 +208,10 @@ def test_the_shipped_example_is_what_the_simulator_writes(tmp_path):
   import pathlib
   import calibrate
   from benchmarks.footpad import dataset
+  from sim.footpad import protocol, scene
   shipped = pathlib.Path(calibrate.__file__).parent / "examples"
-  dataset.example_csv(tmp_path)
+  dataset.example_csv(tmp_path, {k: scene.generate(s)[0] for k, s in
+                                 protocol.scenes(protocol.base(True, 0)).items()})
   for name in ("train.csv", "test.csv"):
     a, b = csvfile.read(shipped / name), csvfile.read(tmp_path / name)
     assert a.names == b.names and a.units == b.units and a.data.shape == b.data.shape

@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 
 from benchmarks import executors, outputs, registry, run as cli
-from calibrate import estimators, linear, mlp
-from models import errors, files
+from calibrate import estimators, linear
+from util import errors, files
 from models import footpad as footpad_model
 from sim import cache, physics, recording
 from sim.footpad import scene as footpad, trajectories
-from sim.shell import drop, scene as shell
+from sim.shell import scene as shell
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -202,7 +202,7 @@ def test_a_damaged_finished_point_is_run_again(tmp_path, damage):
 _WRITER = """
 import sys, time, pathlib
 sys.path.insert(0, {root!r})
-from models import files
+from util import files
 def slow(f):
   f.write(b"new" * 1000)
   f.flush()

@@ -6,7 +6,7 @@ import json
 import pytest
 
 from benchmarks import outputs, run
-from models import files
+from util import files
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 
 from benchmarks import registry
 from benchmarks import run as cli
-from models import fields
+from util import fields
 from sim import settings
 
 BENCHMARKS = registry.all_benchmarks()

@@ -5,7 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from models import errors
+from util import errors
 from sim.footpad import trajectories as tr
 
 DT, FEED = 0.001, 0.005

@@ -29,8 +29,8 @@ from typing import Literal
 import numpy as np
 
 from benchmarks.registry import register
-from models import fields
-from models.fields import setting
+from util import fields
+from util.fields import setting
 
 PAYING = 0.10  # a doubling of training time must lower the error by this share to pay
 

@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 
 from benchmarks.registry import register
-from models import fields
+from util import fields
 
 
 @fields.declared

@@ -18,7 +18,8 @@ def run(ctx) -> dict:
   from sim.footpad import protocol, scene as scene_lib
   out = {"recordings": {}, "timing": {}}
   scenes = protocol.scenes(ctx.settings)
-  for name, (rec, timing) in footpad.recordings(ctx).items():
+  recordings = footpad.recordings(ctx)
+  for name, (rec, timing) in recordings.items():
     ranges = {ax: [float(rec.wrench[:, i].min()), float(rec.wrench[:, i].max())]
               for i, ax in enumerate("XYZ")}
     per_path = {p: int(np.sum(rec.path == i)) for i, p in enumerate(rec.meta["paths"])}
@@ -46,6 +47,9 @@ def run(ctx) -> dict:
                 f"{timing.physics_cpu:.1f} thread-s; model + kernel {timing.build:.1f} s")
     if rec.slip is not None:
       out["recordings"][name]["slip"] = _slip_table(ctx, rec)
+  written = example_csv(ctx.out / "csv", {k: r for k, (r, _) in recordings.items()})
+  ctx.print(f"as CSV for python -m calibrate (every {EXAMPLE_STEP}th sample): "
+            + ", ".join(str(p) for p in written))
   out["samples"] = sum(r["samples"] for r in out["recordings"].values())
   out["effects"] = list(scenes["train"].effects)
   return out
@@ -94,16 +98,15 @@ def recording_csv(rec, path, step: int = 1):
   return csvfile.write(path, names, data, units)
 
 
-def example_csv(out, base=None) -> list:
-  """train.csv (the quick protocol's Z presses, X/Y strokes and Asterisk path, on the paths
-  at their depth) and test.csv (Testing Paths 1 and 2), every `EXAMPLE_STEP`-th sample,
-  simulated with the footpad's defaults at seed 0 (or the scene `base`)."""
+def example_csv(out, recs: dict) -> list:
+  """train.csv (the Z presses, X/Y strokes and Asterisk path of the protocol's training
+  recording, on the paths at their depth) and test.csv (Testing Paths 1 and 2), every
+  `EXAMPLE_STEP`-th sample, from the recordings {"train", "test"}: with the quick protocol at
+  seed 0 these are the examples `python -m calibrate example` copies."""
   import pathlib
-  from sim.footpad import protocol, scene as scene_lib
+  from sim.footpad import protocol
   out = pathlib.Path(out)
   out.mkdir(parents=True, exist_ok=True)
-  recs = {name: scene_lib.generate(s)[0]
-          for name, s in protocol.scenes(base or protocol.base(True, 0)).items()}
   train = recs["train"].on_path(*protocol.LS_PATHS, "asterisk")
   return [recording_csv(train, out / "train.csv", EXAMPLE_STEP),
           recording_csv(recs["test"].on_path(), out / "test.csv", EXAMPLE_STEP)]

@@ -39,8 +39,8 @@ import enum
 import numpy as np
 
 from benchmarks.registry import register
-from models import fields
-from models.fields import setting
+from util import fields
+from util.fields import setting
 
 # name: (low, high, drawn on a log scale), each with the source of its range in the
 # docstrings of FootpadParams and AdcConfig and in docs/physics.md

@@ -20,7 +20,7 @@ import numpy as np
 
 from benchmarks import shell
 from benchmarks.registry import register
-from models import files
+from util import files
 
 PAPER = {"walking_amplitude": 0.15, "corner_fx": -0.2, "corner_fy": -0.2, "turn": "right",
          "end_wall_spike": -0.5, "pushing_range": [-0.5, -0.2]}

@@ -33,7 +33,7 @@ import numpy as np
 
 from benchmarks import shell
 from benchmarks.registry import register
-from models import errors, files
+from util import errors, files
 
 FIXED = {"board.frames": "the static path runs the paper's frame counts (a tenth with --quick)",
          "board.seed": "every design draws its own seed from --seed"}
@@ -49,7 +49,7 @@ def sweep_settings(quick: bool, seed: int):
 def evaluate(point: dict) -> dict:
   """One design on the static path (runs in a worker: everything comes from the point)."""
   from calibrate import linear, metrics  # not estimators: the workers need no JAX
-  from models import fields
+  from util import fields
   from sim.shell import design, geometry, scene as scene_lib
   board = fields.build(scene_lib.ShellScene, point["board"])
   params = dataclasses.replace(board.params, **point["design"])

@@ -24,10 +24,12 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
-from models import fields, footpad as model_lib
-from models import errors
-from models.errors import SimulationError
-from models.fields import setting
+from models import footpad as model_lib
+
+from util import fields
+from util import errors
+from util.errors import SimulationError
+from util.fields import setting
 from sim import physics, recording
 from sim.effects import check_effects
 from sim.footpad import layer, sensor_chain, trajectories

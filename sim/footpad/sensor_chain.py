@@ -11,8 +11,8 @@ from typing import Literal
 
 import numpy as np
 
-from models import fields
-from models.fields import setting
+from util import fields
+from util.fields import setting
 from sim.effects import check_effects, play, rng_for, wander
 from sim.footpad.effects import EFFECTS
 

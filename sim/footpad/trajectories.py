@@ -16,7 +16,7 @@ from typing import Literal
 
 import numpy as np
 
-from models import errors
+from util import errors
 
 STROKE = 0.003  # m, the paper's 3 mm strokes
 APPROACH_HEIGHT = 1e-4  # m above first touch where an episode starts and ends

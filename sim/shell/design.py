@@ -10,8 +10,10 @@ from __future__ import annotations
 import dataclasses
 import numpy as np
 
-from models import fields, shell as model_lib
-from models.fields import setting
+from models import shell as model_lib
+
+from util import fields
+from util.fields import setting
 from sim.shell import geometry, photointerrupter, scene as scene_lib
 
 AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")

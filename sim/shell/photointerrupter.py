@@ -15,8 +15,8 @@ import dataclasses
 
 import numpy as np
 
-from models import errors, fields
-from models.fields import setting
+from util import errors, fields
+from util.fields import setting
 from sim.effects import check_effects, rng_for, wander
 from sim.shell.effects import EFFECTS
 

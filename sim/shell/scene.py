@@ -24,8 +24,10 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
-from models import fields, shell as model_lib
-from models.fields import setting
+from models import shell as model_lib
+
+from util import fields
+from util.fields import setting
 from sim import physics, recording
 from sim.shell import geometry, photointerrupter
 from sim.shell.effects import EffectName

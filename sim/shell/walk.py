@@ -22,8 +22,10 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from models import fields, shell as model_lib
-from models.fields import setting
+from models import shell as model_lib
+
+from util import fields
+from util.fields import setting
 from sim.shell import scene as shell
 
 # hips along x, m (assumed: front and rear legs near the 10 cm body's ends, the wheelbase

@@ -27,3 +27,19 @@ class SimulationError(UserError, RuntimeError):
   """The physics of a scene diverged, or the rig did not reach a command: the message names
   the scene, the simulated time and the setting to change. No numbers are reported from such
   a run."""
+
+
+def unknown(what: str, name: str, allowed, where: str = "") -> SettingError:
+  """The error for a name that is not one of `allowed`, in one line: the closest allowed
+  name as "did you mean ...?" where one is close (a typo), else the allowed names (or, when
+  there are many, `where` to find them)."""
+  import difflib
+  allowed = [str(a) for a in allowed]
+  close = difflib.get_close_matches(str(name), allowed, n=1, cutoff=0.6)
+  if close:
+    hint = f"did you mean {close[0]}?"
+  elif len(allowed) <= 12 or not where:
+    hint = f"allowed {', '.join(allowed)}"
+  else:
+    hint = f"see {where}"
+  return SettingError(f"unknown {what} {name!r}: {hint}")

@@ -10,7 +10,7 @@ runs every declared check of a dataclass and of the dataclasses nested in it, th
 class's `relations()` (checks between fields), and raises `ValueError` naming the key as
 `--set` spells it ("params.friction=0.0 is out of range: allowed (0, inf)").
 
-This module imports nothing of the project: `models` and `sim` both build on it.
+This module imports only `util.errors`: `models`, `sim` and `benchmarks` build on it.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from typing import Any, Iterator, Mapping, Optional
 
 import numpy as np
 
-from models import errors
+from util import errors
 
 _INTERVAL = re.compile(r"\s*([\[(])\s*([^,\s]+)\s*,\s*([^,\s]+)\s*([\])])\s*")
 _ENTRY = re.compile(r"^ {4}(\w+(?:, \w+)*): ?(.*)$")

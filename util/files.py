@@ -3,7 +3,8 @@
 `atomic_write` writes beside the target and renames into place, so a reader (or a run that
 was killed mid-write) never leaves a half-written file under the real name; `json_text`
 writes strict JSON (no NaN or Infinity tokens) and `from_json` reads it back. This module
-imports only `models.errors`, so `calibrate` and `sim` share it.
+imports only `util.errors`, so every package shares it. `cache_dir` is the root of the
+project's on-disk cache (recordings, kernels, saved tracebacks).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from models import errors
+from util import errors
 
 TMP_SUFFIX = ".tmp"
 
@@ -37,6 +38,12 @@ def atomic_write(path: pathlib.Path, write: Callable) -> None:
       os.unlink(f.name)
       raise
   os.replace(f.name, path)
+
+
+def cache_dir() -> pathlib.Path:
+  """Root of the on-disk cache: $TESTBENCH_CACHE or ~/.cache/footpad-testbench."""
+  root = os.environ.get("TESTBENCH_CACHE")
+  return pathlib.Path(root) if root else pathlib.Path.home() / ".cache" / "footpad-testbench"
 
 
 def writer_pid(tmp: pathlib.Path) -> int | None:

@@ -1,0 +1,71 @@
+"""The one command-line error path of the project's commands (`python -m benchmarks.run`,
+`python -m calibrate`, `python -m sim.render`).
+
+A mistake that is the user's to fix (`util.errors.UserError`: a setting, a file, an output
+place) prints one line starting `error:` and exits with code 2; Ctrl-C prints one line and
+exits with 130; anything else is a bug in the testbench: two lines, exit code 3, and the
+traceback saved to a file of its own (never overwritten by another error in the same second).
+Warnings print as one line each, not with the source line that raised them: a command's
+output is read by people, not debuggers.
+"""
+
+from __future__ import annotations
+
+import pathlib
+import sys
+import os
+import tempfile
+import time
+import traceback
+import warnings
+from typing import Callable
+
+from util import errors, files
+
+INTERRUPTED = 130
+
+
+def _warning_line(message, category, filename, lineno, line=None) -> str:
+  return f"warning: {message}\n"
+
+
+def run(body: Callable[[], int], command: str,
+        interrupted: str = "interrupted: nothing was written") -> int:
+  """Runs a command's `body` (which returns its exit code) on the error path above; a bug's
+  traceback goes to the cache's `tracebacks/` folder, named after `command`, the time and a
+  unique suffix."""
+  before, warnings.formatwarning = warnings.formatwarning, _warning_line
+  try:
+    return body()
+  except errors.UserError as err:
+    print(f"error: {err}", file=sys.stderr)
+    return 2
+  except KeyboardInterrupt:
+    print(interrupted, file=sys.stderr)
+    return INTERRUPTED
+  except Exception:
+    return internal_error(traceback_path(command))
+  finally:
+    warnings.formatwarning = before
+
+
+def traceback_path(command: str) -> pathlib.Path:
+  """A new file for one bug's traceback: `cache_dir()/tracebacks/COMMAND-TIME-XXXX.txt`."""
+  folder = files.cache_dir() / "tracebacks"
+  folder.mkdir(parents=True, exist_ok=True)
+  fd, name = tempfile.mkstemp(prefix=f"{command}-{time.strftime('%Y%m%d-%H%M%S')}-",
+                              suffix=".txt", dir=folder)
+  os.close(fd)
+  return pathlib.Path(name)
+
+
+def internal_error(path: pathlib.Path) -> int:
+  """Saves the traceback being handled to `path` and says so in two lines; exit code 3."""
+  path = pathlib.Path(path)
+  path.parent.mkdir(parents=True, exist_ok=True)
+  files.write_text(path, traceback.format_exc())
+  kind, value = sys.exc_info()[:2]
+  print(f"internal error (a bug in the testbench, not in your settings): {kind.__name__}: "
+        f"{value}\n  the traceback is in {path}; please report it with that file",
+        file=sys.stderr)
+  return 3
