@@ -26,7 +26,7 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
     key, eq, value = item.partition("=")
     if not eq or not key.strip():
       raise errors.SettingError(
-          f"--set {item!r} is not key=value (e.g. --set params.friction=0.8)")
+          f"--set {item!r} is not key=value (e.g. --set params.friction_mu0=1.5)")
     out[key.strip()] = value.strip()
   return out
 
@@ -59,7 +59,7 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                       help="print this run's metrics beside those of an earlier run's "
                            "results folder")
   parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
-                      help="change a setting, e.g. params.friction=0.8, adc.vref=5, "
+                      help="change a setting, e.g. params.friction_mu0=1.5, adc.vref=5, "
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
                            "--help)")
   parser.add_argument("--executor", choices=("processes", "serial", "dask"), default="processes",

@@ -48,8 +48,9 @@ class FootpadParams:
       from E*A/h alone, is 4.5 x E*A/h in that model (~1020 N at 1.5 mm).
     youngs_modulus: Vytaflex 20 (Shore 20A), Pa; 0.73 MPa from Gent's relation.
     poisson_ratio: polyurethane rubber is nearly incompressible; 0.49.
-    friction: Coulomb coefficient pad/plate. 0.8-1 is needed for the paper's ~220 N shear
-      ranges (measured here); 0.9 by default.
+    friction: Coulomb coefficient pad/plate of the `friction` effect, one for every element
+      (assumed 0.9, soft polyurethane on metal); `pressure_friction` replaces it with
+      Thirion's law per element (friction_mu0, friction_shear_strength).
     crown_radius: radius of a spherical crown of the contact face, m; inf for a flat pad.
     density: rubber density, kg/m^3 (Vytaflex 20: specific gravity ~1.0, Smooth-On data);
       sets the lumped mass of each element's rubber column.

@@ -27,18 +27,43 @@ class Kind(enum.Enum):
 
 @dataclasses.dataclass(frozen=True)
 class Effect:
-  """An effect's name, kind and the physical thing it stands for (with its magnitude's source)."""
+  """An effect: what it is and which of the scene's settings it uses.
+
+  Attributes:
+    name: what a scene's `effects` lists.
+    kind: where it acts (the model, the die stresses, the signals).
+    doc: the physical thing it stands for, with its magnitude's source.
+    reads: the settings (keys as --set spells them) that size it; they matter only while
+      the effect is on.
+    replaces: settings it takes the place of while it is on (they then change nothing).
+  """
   name: str
   kind: Kind
   doc: str
+  reads: tuple[str, ...] = ()
+  replaces: tuple[str, ...] = ()
+
+
+def unread(key: str, active, known: dict[str, Effect]) -> str | None:
+  """Why the setting `key` changes nothing with the effects `active` on (None if it may
+  matter): an active effect replaces it, or only effects that are off read it."""
+  for e in known.values():
+    if e.name in active and key in e.replaces:
+      instead = " and ".join(e.reads) or "nothing"
+      return (f"the effect {e.name} replaces it (it reads {instead}): set those, or drop "
+              f"{e.name} from effects")
+  readers = [e.name for e in known.values() if key in e.reads]
+  if readers and not set(readers) & set(active):
+    return (f"only the effect {' or '.join(readers)} reads it, and the scene's effects leave "
+            f"{'it' if len(readers) == 1 else 'them'} off: add {readers[0]} to effects")
+  return None
 
 
 def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
   """Validates effect names; returns them sorted and de-duplicated."""
   unknown = [n for n in names if n not in known]
   if unknown:
-    raise errors.SettingError(f"effects={tuple(names)!r} is out of range: unknown effect "
-                              f"{unknown[0]!r}; allowed any of {', '.join(sorted(known))}")
+    raise errors.unknown("effect", unknown[0], sorted(known))
   return tuple(sorted(set(names)))
 
 

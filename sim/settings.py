@@ -1,6 +1,6 @@
 """`key=value` settings (the command's --set) applied to the declared dataclasses of any scene.
 
-Keys name fields, with dots into nested dataclasses (params.friction=0.8). Each value is read
+Keys name fields, with dots into nested dataclasses (params.friction_mu0=1.5). Each value is read
 as the field's annotation says (`util.fields`): numbers, integers, booleans (true/false,
 1/0, yes/no, on/off), comma-separated tuples (pairs separated by ";", e.g.
 spring_xy=0.03,0.02;-0.03,0.02;0.03,-0.02), `Literal` choices, enums by value, "none" for
@@ -27,7 +27,7 @@ class Key:
   """One settable key, as `NAME --help` lists it.
 
   Attributes:
-    name: dotted key (params.friction).
+    name: dotted key (params.friction_mu0).
     type: the annotation, as text.
     default: the value before any --set.
     allowed: the declared range, choices or form.
@@ -50,7 +50,8 @@ def apply(obj: Any, overrides: Mapping[str, str],
     fixed: keys the caller sets itself, with the reason; setting one is refused.
   Raises:
     ValueError naming the key and what it allows: unknown or fixed keys, unreadable values,
-    values out of range, and relations between fields that fail.
+    values out of range, relations between fields that fail, and keys that change nothing
+    (a scene's `unread(key)`: the effect that replaces them, or the effect they size is off).
   """
   fixed = fixed or {}
   for key, text in overrides.items():
@@ -60,6 +61,11 @@ def apply(obj: Any, overrides: Mapping[str, str],
                                   f"with --set")
     obj = _override(obj, key, key, text)
   fields.check(obj)
+  unread = getattr(obj, "unread", None)  # a scene: which settings its effects leave unread
+  for key, text in overrides.items():
+    why = unread(key) if unread else None
+    if why:
+      raise errors.SettingError(f"{key}={text} changes nothing: {why}")
   return obj
 
 
@@ -86,8 +92,9 @@ def _override(obj: Any, key: str, path: str, text: str) -> Any:
   head, _, rest = path.partition(".")
   by_name = {f.name: f for f in dataclasses.fields(obj)}
   if head not in by_name:
-    known = ", ".join(k.name for k in keys(obj))
-    raise errors.SettingError(f"unknown setting {key!r}: allowed {known}")
+    prefix = key[:len(key) - len(path)]
+    raise errors.unknown("setting", key, [prefix + k.name for k in keys(obj)],
+                         "python -m benchmarks.run NAME --help")
   current = getattr(obj, head)
   if rest:
     if not dataclasses.is_dataclass(current):
@@ -119,12 +126,13 @@ def parse(text: str, tp) -> Any:
     for c in choices:
       if text == str(c):
         return c
-    raise ValueError(f"{text!r} is not one of the choices")
+    raise ValueError(f"{text!r} is not one of the choices{_close(text, choices)}")
   if isinstance(tp, type) and issubclass(tp, enum.Enum):
     try:
       return tp(text)
     except ValueError:
-      raise ValueError(f"{text!r} is not one of the choices") from None
+      raise ValueError(f"{text!r} is not one of the choices"
+                       f"{_close(text, [m.value for m in tp])}") from None
   if tp is bool:
     if text.lower() in _TRUE:
       return True
@@ -152,6 +160,13 @@ def parse(text: str, tp) -> Any:
     except ValueError:
       raise ValueError("not a number") from None
   return text
+
+
+def _close(text: str, choices) -> str:
+  """"; did you mean X?" for a typo of one of `choices`, else ""."""
+  import difflib
+  close = difflib.get_close_matches(text, [str(c) for c in choices], n=1, cutoff=0.6)
+  return f"; did you mean {close[0]}?" if close else ""
 
 
 def _type_text(tp) -> str:

@@ -31,6 +31,7 @@ from util import errors
 from util.errors import SimulationError
 from util.fields import setting
 from sim import physics, recording
+from sim import effects as effects_lib
 from sim.effects import check_effects
 from sim.footpad import layer, sensor_chain, trajectories
 from sim.footpad.effects import EFFECTS, EffectName
@@ -81,6 +82,10 @@ class FootpadScene:
   @property
   def max_indentation(self) -> float:
     return MAX_STRAIN * self.params.thickness
+
+  def unread(self, key: str) -> Optional[str]:
+    """Why the setting `key` changes nothing under this scene's effects (None if it may)."""
+    return effects_lib.unread(key, self.effects, EFFECTS)
 
   def relations(self) -> fields.Relations:
     """Checks between fields (`fields.check` runs them after each field's own range)."""

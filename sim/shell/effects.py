@@ -11,7 +11,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "The photointerrupter's response outside the 2-4 mm window the 1/r law is fitted "
            "on: below ~2 mm the 12-bit ADC clips at 4095, below the ~0.8 mm peak the response "
            "falls towards zero (the peak position, Photointerrupter.peak, is assumed). Off: the ideal a/r + b at every "
-           "height (still clipped to the ADC's range)."),
+           "height (still clipped to the ADC's range).",
+           reads=("sensor.peak",)),
     Effect("ray_miss", Kind.SIGNAL,
            "A sensor whose line of sight passes beside its reflector facet (a square of "
            "ShellParams.reflector_size, 5 mm assumed, in the shell frame) sees no reflector "
@@ -28,7 +29,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "counts). Assumed within wide limits: the paper fits a and b per sensor (Eqns "
            "1-2) without giving their spread, and Sharp specifies its photointerrupters' "
            "output only within a 10:1 window (GP1S24 datasheet: collector current 40-400 uA). "
-           "The calibration absorbs it: Table I medians move by 0.3 points at most."),
+           "The calibration absorbs it: Table I medians move by 0.3 points at most.",
+           reads=("sensor.gain_spread", "sensor.offset_spread")),
     Effect("stray_ir", Kind.SIGNAL,
            "Stray infrared light reaching the detectors through the open shell: an offset "
            "wandering as an Ornstein-Uhlenbeck process, shared by all sensors (room light) plus "
@@ -38,11 +40,13 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in [
            "noise per sensor or 7 counts common to all (`shell_table2` prints it), far above "
            "the 1 count of a static sensor on the bench (Sec. II-B); it zeroes 'a small "
            "constant offset' by averaging (Sec. III-A) and names stray IR for new shells to "
-           "shield against (Sec. IV). The correlation time is assumed."),
+           "shield against (Sec. IV). The correlation time is assumed.",
+           reads=("sensor.stray_ir", "sensor.stray_ir_time")),
     Effect("spring_hysteresis", Kind.MODEL,
            "Coulomb friction in the mount (spring seats, shell fixings): frictionloss on the "
            "mount joints of ShellParams.mount_friction = 10 mN and 0.6 mN m, 1 % of the hand "
-           "loads' range. Assumed; steel springs themselves are nearly lossless."),
+           "loads' range. Assumed; steel springs themselves are nearly lossless.",
+           reads=("params.mount_friction",)),
 ]}
 
 # The names a scene's `effects` field takes.

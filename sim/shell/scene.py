@@ -30,7 +30,8 @@ from util import fields
 from util.fields import setting
 from sim import physics, recording
 from sim.shell import geometry, photointerrupter
-from sim.shell.effects import EffectName
+from sim import effects as effects_lib
+from sim.shell.effects import EFFECTS, EffectName
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
 FRAME_RATE = 100.0  # Hz: the SkinProc's frame rate
@@ -80,6 +81,10 @@ class ShellScene:
   sensor: photointerrupter.Photointerrupter = photointerrupter.Photointerrupter()
   unit_seed: int = setting(0, "[0, inf)")
   seed: int = setting(0, "[0, inf)")
+
+  def unread(self, key: str) -> Optional[str]:
+    """Why the setting `key` changes nothing under this scene's effects (None if it may)."""
+    return effects_lib.unread(key, self.effects, EFFECTS)
 
   def relations(self) -> fields.Relations:
     """Checks between fields (`fields.check` runs them after each field's own range)."""
