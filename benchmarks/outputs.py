@@ -4,11 +4,12 @@
 created or written, or another live run holds it; otherwise it takes a lock file in it that
 `release` removes. A lock left by a run that was killed (its process is gone) is taken over.
 
-A finished run leaves (`benchmarks.run`): `manifest.json` (the command, every resolved
-setting, seed, effects, package versions, git commit, the cached recordings it used,
-timings), `metrics.json` (all the benchmark returned), `metrics.csv` (one row per number:
-group, method, axis, metric, value), `table.md` (the printed report), and where the
-benchmark has them `predictions.npz` (`write_predictions`) and `figures/*.png`.
+A finished run leaves (`write_run`): `manifest.json` (the command, every resolved setting,
+seed, effects, package versions, git commit, the cached recordings it used, timings),
+`metrics.json` (all the benchmark returned), `metrics.csv` (one row per number: group,
+method, axis, metric, value, spread; method and axis as the benchmark's `Result` gives
+them), `table.md` (the printed report), and where the benchmark has them
+`predictions.npz` (`write_predictions`) and `figures/*.png`.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from calibrate import metrics
 from util import errors, files
 
 LOCK = ".run.lock"
@@ -89,10 +91,53 @@ def claim(out: pathlib.Path) -> Lock:
 
 # ---- what a finished run leaves in its folder -------------------------------------------
 
-METHODS = ("LS", "POLY", "LSANN", "NN", "cubic")
-AXES = ("X", "Y", "Z", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
-CSV_COLUMNS = ("group", "method", "axis", "metric", "value")
 PACKAGES = ("mujoco", "numpy", "scipy", "jax", "jaxlib", "jaxopt", "matplotlib", "trimesh")
+Row = metrics.Row
+
+
+@dataclasses.dataclass(frozen=True)
+class Result:
+  """What a benchmark's `run(ctx)` returns (a plain dict is taken as `Result(data,
+  plain(data))`).
+
+  Attributes:
+    data: everything for metrics.json (nested, JSON-able).
+    rows: metrics.csv: every number once, a per-method and per-axis number with its method
+      and axis (`scored`), the rest with neither (`plain`).
+    recordings: cache stems of the recordings the run used, for the manifest (also those
+      of sweep workers in other processes).
+  """
+  data: dict
+  rows: tuple = ()
+  recordings: tuple[str, ...] = ()
+
+
+def scored(group: str, by_method: dict, spread: dict | None = None) -> list[Row]:
+  """The rows of {method: {axis: {metric: value}}}; `spread`, of the same shape, gives each
+  value's seed-to-seed standard deviation."""
+  out = []
+  for m, axes in by_method.items():
+    for ax, per in axes.items():
+      for k, v in per.items():
+        sd = spread[m][ax][k] if spread and m in spread else float("nan")
+        out.append(Row(group, m, ax, k, float(v), float(sd)))
+  return out
+
+
+def plain(data: Any, path: tuple[str, ...] = (), skip: tuple[tuple[str, ...], ...] = ()
+          ) -> list[Row]:
+  """Every number of nested dicts and lists as a row of no method and no axis: the group is
+  its path but for the last key, the metric that key. Paths that start with one of `skip`
+  (where "*" stands for any key) are left out: the benchmark gave their rows (`scored`)."""
+  if any(len(path) >= len(s) and all(a in ("*", b) for a, b in zip(s, path)) for s in skip):
+    return []
+  if isinstance(data, dict):
+    return [r for k, v in data.items() for r in plain(v, path + (str(k),), skip)]
+  if isinstance(data, (list, tuple)):
+    return [r for i, v in enumerate(data) for r in plain(v, path + (str(i),), skip)]
+  if isinstance(data, bool) or not isinstance(data, (int, float, np.integer, np.floating)):
+    return []
+  return [Row("/".join(path[:-1]), "", "", path[-1] if path else "", float(data))]
 
 
 def versions() -> dict[str, str]:
@@ -125,49 +170,35 @@ def git_commit() -> str | None:
   return head.stdout.strip() + ("-dirty" if dirty else "")
 
 
-def metric_rows(result: Any, path: tuple[str, ...] = ()) -> list[dict]:
-  """Every number of a result (nested dicts and lists) as a row (group, method, axis, metric,
-  value): the method and axis are the first path elements that name one (`METHODS`,
-  `AXES`), the metric the last, the group the rest joined by "/"."""
-  if isinstance(result, dict):
-    return [r for k, v in result.items() for r in metric_rows(v, path + (str(k),))]
-  if isinstance(result, (list, tuple)):
-    return [r for i, v in enumerate(result) for r in metric_rows(v, path + (str(i),))]
-  if isinstance(result, bool) or not isinstance(result, (int, float, np.integer, np.floating)):
-    return []
-  method = next((p for p in path[:-1] if p in METHODS), "")
-  axis = next((p for p in path[:-1] if p in AXES), "")
-  group = "/".join(p for p in path[:-1] if p not in (method, axis))
-  return [{"group": group, "method": method, "axis": axis, "metric": path[-1] if path else "",
-           "value": float(result)}]
-
-
-def csv_text(rows: list[dict]) -> str:
-  import csv
-  import io
-  buf = io.StringIO()
-  writer = csv.DictWriter(buf, CSV_COLUMNS, lineterminator="\n")
-  writer.writeheader()
-  writer.writerows({**r, "value": repr(r["value"])} for r in rows)
-  return buf.getvalue()
-
-
-def read_metric_rows(path: pathlib.Path) -> list[dict]:
-  """The rows of a metrics.csv `write_results` wrote.
+def read_rows(path: pathlib.Path) -> list[Row]:
+  """The rows of a run's metrics.csv.
 
   Raises:
     errors.SettingError naming the file when it is missing or not such a table.
   """
-  import csv
   try:
-    with open(path, newline="") as f:
-      reader = csv.DictReader(f)
-      if tuple(reader.fieldnames or ()) != CSV_COLUMNS:
-        raise ValueError(f"its columns are {reader.fieldnames}, not {', '.join(CSV_COLUMNS)}")
-      return [{**r, "value": float(r["value"])} for r in reader]
-  except (OSError, ValueError) as err:
+    return metrics.read_csv(path)
+  except (OSError, ValueError, KeyError) as err:
     raise errors.SettingError(f"--compare: {path} cannot be read as a run's metrics.csv "
                               f"({err}); give the results folder of an earlier run") from None
+
+
+def write_run(out: pathlib.Path, result: Result, head: dict, lines: list[str], title: str,
+              manifest: dict) -> None:
+  """Fills the results folder of a finished run: metrics.json (`head`, then the result's
+  data), metrics.csv (its rows, then `head`'s numbers), table.md (the printed `lines` under
+  `title`) and manifest.json (`manifest`, with the recordings used and the folder's
+  files)."""
+  out = pathlib.Path(out)
+  files.write_text(out / "metrics.json", files.json_text({**head, **result.data}, indent=1,
+                                                          sort_keys=True, default=str))
+  files.write_text(out / "metrics.csv", metrics.csv_text(list(result.rows) + plain(head)))
+  files.write_text(out / TABLE, title + "```\n" + "\n".join(lines) + "\n```\n")
+  manifest = {**manifest, "recordings": list(dict.fromkeys(result.recordings)),
+              "files": sorted(str(p.relative_to(out)) for p in out.rglob("*")
+                              if p.is_file() and not p.name.startswith("."))}
+  manifest["files"] = sorted(set(manifest["files"]) | {"manifest.json"})
+  files.write_text(out / "manifest.json", files.json_text(manifest, indent=1, default=str))
 
 
 def write_predictions(out: pathlib.Path, truth: np.ndarray, predictions: dict[str, np.ndarray],
@@ -182,23 +213,34 @@ def write_predictions(out: pathlib.Path, truth: np.ndarray, predictions: dict[st
   return path
 
 
-def compare_lines(old: list[dict], new: list[dict], limit: int = 80) -> list[str]:
-  """The metrics two runs share, side by side with their difference; per-seed and
-  per-design rows (a number in their group) are left out to keep the headline."""
+def compare_lines(old: list[Row], new: list[Row], limit: int = 80) -> list[str]:
+  """The metrics two runs share, side by side with their difference; a change within the
+  seeds' spread (either run's, where the number is a median over seeds) is marked "~", as
+  asv's compare does, so scatter is not read as a change. Per-seed and per-design rows (a
+  number in their group) are left out to keep the headline."""
   def key(r):
-    return (r["group"], r["method"], r["axis"], r["metric"])
-  before = {key(r): r["value"] for r in old}
+    return (r.group, r.method, r.axis, r.metric)
+  before = {key(r): r for r in old}
+  for r in new:  # an earlier run's row that named no method (written before rows had them)
+    unnamed = (r.group, "", r.axis, r.metric)
+    if key(r) not in before and unnamed in before and not before[unnamed].method:
+      before[key(r)] = before[unnamed]
   shared = [r for r in new if key(r) in before and
-            not any(part.isdigit() for part in r["group"].split("/"))]
+            not any(part.isdigit() for part in r.group.split("/"))]
   # the headline first: a benchmark's "results" (Table I's cells, say), then the rest
-  shared.sort(key=lambda r: r["group"].split("/")[0] != "results")
+  shared.sort(key=lambda r: r.group.split("/")[0] != "results")
   if not shared:
     return ["no metric in common with the earlier run (another benchmark?)"]
   width = max(len(" ".join(p for p in key(r) if p)) for r in shared[:limit])
   lines = [f"{'metric':{width}s} {'earlier':>12s} {'this run':>12s} {'change':>12s}"]
   for r in shared[:limit]:
-    a, b = before[key(r)], r["value"]
-    lines.append(f"{' '.join(p for p in key(r) if p):{width}s} {a:12.4g} {b:12.4g} {b - a:+12.4g}")
+    a, b = before[key(r)].value, r.value
+    spread = np.nanmax([before[key(r)].spread, r.spread, 0.0])
+    mark = " ~" if b != a and abs(b - a) <= spread else ""
+    lines.append(f"{' '.join(p for p in key(r) if p):{width}s} {a:12.4g} {b:12.4g} "
+                 f"{b - a:+12.4g}{mark}")
   if len(shared) > limit:
     lines.append(f"... and {len(shared) - limit} more in metrics.csv")
+  if any(line.endswith(" ~") for line in lines):
+    lines.append("~: within the seeds' spread (standard deviation over the networks' seeds)")
   return lines

@@ -38,6 +38,7 @@ class Context:
     executor: where sweeps run their points (`benchmarks.executors.ExecutorSpec`).
     lines: what `print` printed, in order (the report's text for DIR/table.md).
     benchmark: the registered name the run was started by.
+    recordings: cache stems of the recordings the run used (`used`), for the manifest.
   """
   quick: bool
   seed: int
@@ -49,6 +50,7 @@ class Context:
   executor: Any = None
   lines: list = dataclasses.field(default_factory=list)
   benchmark: str = ""
+  recordings: list = dataclasses.field(default_factory=list)
 
   @property
   def name(self) -> str:
@@ -66,6 +68,13 @@ class Context:
     self.lines.append(text)
     print(text, flush=True)
 
+  def used(self, *recs) -> None:
+    """Notes recordings (or their cache stems, from sweep workers) for the manifest."""
+    for r in recs:
+      stem = r if isinstance(r, str) else getattr(r, "stem", None)
+      if stem and stem not in self.recordings:
+        self.recordings.append(stem)
+
   def progress(self, label: str) -> Optional[Progress]:
     """A progress callback for library code (`progress_bar`), None with --no-progress."""
     return progress_bar(label) if self.show_progress else None
@@ -82,7 +91,8 @@ class Benchmark:
     settings: settings(quick, seed) -> the dataclass that --set keys name (imports the
       simulation only when called).
     fixed: keys the benchmark sets itself, with the reason a --set of them is refused.
-    tags: the rig and what kind of benchmark it is.
+    tags: the rig and what kind of benchmark it is; "fast": its --quick run takes seconds
+      (the registry-wide conformance test runs every such benchmark twice).
     doc: the module's docstring, for NAME --help.
   """
   name: str

@@ -10,6 +10,7 @@ metrics.json, metrics.csv, table.md, and the benchmark's predictions and figures
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import pathlib
 import shlex
 import sys
@@ -162,7 +163,7 @@ def _main(argv: Optional[list[str]]) -> int:
     return 0
   earlier = None
   if args.compare is not None:  # read before the run: a mistake costs no simulation
-    earlier = outputs.read_metric_rows(args.compare / "metrics.csv")
+    earlier = outputs.read_rows(args.compare / "metrics.csv")
   lock = outputs.claim(out)  # before any simulation: a run that cannot write does not start
   try:
     return _run(bench, args, applied, overrides, out, earlier,
@@ -192,28 +193,24 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   except Exception:  # not the user's mistake: a short message, the traceback in the results
     return cli.internal_error(out / "traceback.txt")
   wall = time.perf_counter() - t0
-  metrics = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
-             "settings": overrides, "wall_seconds": wall, **result}
-  text = files.json_text(metrics, indent=1, sort_keys=True, default=str)
-  files.write_text(out / "metrics.json", text)
-  rows = outputs.metric_rows(files.from_json(text))  # arrays as lists, as the file has them
-  files.write_text(out / "metrics.csv", outputs.csv_text(rows))
+  if not isinstance(result, outputs.Result):
+    result = outputs.Result(result, tuple(outputs.plain(files.from_json(files.json_text(
+        result, default=str)))))  # arrays as lists, as metrics.json has them
+  head = {"benchmark": args.name, "seed": args.seed, "quick": args.quick,
+          "settings": overrides, "wall_seconds": wall}
   command = "python -m benchmarks.run " + shlex.join(argv)
-  files.write_text(out / outputs.TABLE, f"# {args.name}\n\n{bench.description}\n\n"
-                   f"`{command}` (seed {args.seed})\n\n```\n" + "\n".join(ctx.lines) + "\n```\n")
-  from sim import recording
   manifest = {
       "benchmark": args.name, "command": command, "seed": args.seed, "quick": args.quick,
       "overrides": overrides, "settings": _resolved(applied),
       "effects": list(getattr(applied, "effects", ()) or ()),
       "versions": outputs.versions(), "git_commit": outputs.git_commit(),
-      "recordings": recording.used_stems(), "cache_dir": str(cache.cache_dir()),
-      "started": started, "wall_seconds": wall,
+      "cache_dir": str(cache.cache_dir()), "started": started, "wall_seconds": wall,
       "rerun": "the command above at git_commit; with the same versions it gives the same "
-               "bytes (every draw follows the seed)",
-      "files": sorted(str(p.relative_to(out)) for p in out.rglob("*")
-                      if p.is_file() and not p.name.startswith("."))}
-  files.write_text(out / "manifest.json", files.json_text(manifest, indent=1, default=str))
+               "bytes (every draw follows the seed)"}
+  result = dataclasses.replace(result, recordings=tuple(ctx.recordings) + result.recordings)
+  outputs.write_run(out, result, head, ctx.lines, f"# {args.name}\n\n{bench.description}\n\n"
+                    f"`{command}` (seed {args.seed})\n\n", manifest)
+  rows = list(result.rows)
   if earlier is not None:
     print(f"\ncompared with {args.compare}:")
     print("\n".join(outputs.compare_lines(earlier, rows)))

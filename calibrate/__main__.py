@@ -43,7 +43,7 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("--inputs", required=True,
                  help="sensor columns, comma-separated names or globs (e.g. 'p*')")
   p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
-  p.add_argument("--method", required=True, choices=METHODS,
+  p.add_argument("--method", required=True, type=_method, metavar="{" + ",".join(METHODS) + "}",
                  help="ls: linear least squares; poly: polynomial pseudoinverse; lsann: LS "
                       "plus a network on its residual; nn: the network alone")
   p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("estimator.npz"),
@@ -84,6 +84,14 @@ def _parser() -> argparse.ArgumentParser:
                                  "folder's csv/.")
   p.add_argument("out", type=pathlib.Path, help="folder for train.csv and test.csv")
   return parser
+
+
+def _method(text: str) -> str:
+  """--method's value; a typo is answered with the closest method."""
+  if text.lower() in METHODS:
+    return text.lower()
+  raise argparse.ArgumentTypeError(str(errors.unknown("method", text, METHODS)).replace(
+      "unknown method ", ""))
 
 
 def _list(text: str) -> list[str]:

@@ -67,7 +67,7 @@ def summary(pred: np.ndarray, truth: np.ndarray, axes, threshold: float = 0.2) -
 
 # ---- the results table: one row per number (metrics.csv) -----------------------------------
 
-COLUMNS = ("group", "method", "axis", "metric", "value")
+COLUMNS = ("group", "method", "axis", "metric", "value", "spread")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,12 +80,15 @@ class Row:
     axis: the output it scores (X, Fz...), "" for a number of no axis.
     metric: what it is (rmse, r2_pct, seconds...).
     value: the number (NaN where it is undefined).
+    spread: its standard deviation over the seeds it is a median or mean of (NaN where it
+      is one fit's), so a comparison can tell a change from seed-to-seed scatter.
   """
   group: str
   method: str
   axis: str
   metric: str
   value: float
+  spread: float = float("nan")
 
 
 def rows(scores: dict, method: str, group: str = "results") -> list[Row]:
@@ -96,22 +99,24 @@ def rows(scores: dict, method: str, group: str = "results") -> list[Row]:
 
 def csv_text(table: list[Row]) -> str:
   """metrics.csv's text: a header of `COLUMNS`, then a line per row (values as repr, so
-  they read back to the same float)."""
+  they read back to the same float; an empty spread where there is none)."""
   import csv
   import io
   buf = io.StringIO()
   writer = csv.writer(buf, lineterminator="\n")
   writer.writerow(COLUMNS)
-  writer.writerows((r.group, r.method, r.axis, r.metric, repr(float(r.value))) for r in table)
+  writer.writerows((r.group, r.method, r.axis, r.metric, repr(float(r.value)),
+                    "" if r.spread != r.spread else repr(float(r.spread))) for r in table)
   return buf.getvalue()
 
 
 def read_csv(path) -> list[Row]:
-  """The rows of a metrics.csv; ValueError saying why when it is not such a table."""
+  """The rows of a metrics.csv (one written before the spread column too); ValueError
+  saying why when it is not such a table."""
   import csv
   with open(path, newline="") as f:
     reader = csv.DictReader(f)
-    if tuple(reader.fieldnames or ()) != COLUMNS:
+    if tuple(reader.fieldnames or ()) not in (COLUMNS, COLUMNS[:-1]):
       raise ValueError(f"its columns are {reader.fieldnames}, not {', '.join(COLUMNS)}")
-    return [Row(r["group"], r["method"], r["axis"], r["metric"], float(r["value"]))
-            for r in reader]
+    return [Row(r["group"], r["method"], r["axis"], r["metric"], float(r["value"]),
+                float(r.get("spread") or "nan")) for r in reader]

@@ -52,6 +52,8 @@ class Recording:
     height: shell, (N, 8) reflector heights above the sensors, m (NaN: a missed facet).
     pose: shell, (N, 6) mount joints: displacement (m) and hinge angles (rad).
     applied: shell, (N, 6) the hand's wrench about the F/T site, N and N m.
+    stem: the cache stem (`<rig>-<key>`) `generate` filed it under, for a run's manifest
+      (None for a recording made otherwise); not saved.
   """
   time: np.ndarray
   counts: np.ndarray
@@ -68,6 +70,7 @@ class Recording:
   height: Optional[np.ndarray] = None
   pose: Optional[np.ndarray] = None
   applied: Optional[np.ndarray] = None
+  stem: Optional[str] = dataclasses.field(default=None, compare=False)
 
   def _arrays(self) -> dict[str, np.ndarray]:
     return {k: getattr(self, k) for k in _REQUIRED + _OPTIONAL if getattr(self, k) is not None}
@@ -189,15 +192,6 @@ class Timing:
   threads: int
 
 
-_USED: list[str] = []  # cache stems asked for by this process, for a run's manifest
-
-
-def used_stems() -> list[str]:
-  """The cache stems (`<rig>-<key>`) of the recordings this process has asked `generate`
-  for, in order, without repeats: what a run's manifest names as its data."""
-  return list(dict.fromkeys(_USED))
-
-
 def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recording, Timing]],
              use_cache: bool = True) -> tuple[Recording, Optional[Timing]]:
   """The recording of a scene, from the cache when an identical request was made before.
@@ -207,18 +201,19 @@ def generate(rig: str, key: dict[str, Any], simulate: Callable[[], tuple[Recordi
     key: everything that determines the recording's bytes (scene and versions).
     simulate: runs the scene when the cache misses.
   Returns:
-    The recording and the timing of its simulation (None when loaded from the cache).
+    The recording (its `stem` the cache stem, which a run's manifest names) and the timing
+    of its simulation (None when loaded from the cache).
   """
   stem = cache.cache_dir() / "recordings" / f"{rig}-{cache.content_key(key)}"
-  _USED.append(stem.name)
   if use_cache and stem.with_suffix(".npz").exists() and stem.with_suffix(".json").exists():
     try:
-      return Recording.load(stem), None
+      return dataclasses.replace(Recording.load(stem), stem=stem.name), None
     except errors.DataError as err:  # damaged: say so, drop it, simulate it again
       warnings.warn(f"{err}: deleted from the cache, simulating it again", stacklevel=2)
       for suffix in (".npz", ".json"):
         stem.with_suffix(suffix).unlink(missing_ok=True)
   rec, timing = simulate()
-  if use_cache:
-    rec.save(stem)
-  return rec, timing
+  if not use_cache:
+    return rec, timing
+  rec.save(stem)
+  return dataclasses.replace(rec, stem=stem.name), timing

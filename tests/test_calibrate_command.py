@@ -160,11 +160,11 @@ def test_the_wrapper_fits_and_scores_as_the_estimator_does():
 # ---- simulator -> CSV -> command = the Python path -----------------------------------------
 
 @pytest.fixture(scope="module")
-def footpad_csv(tmp_path_factory):
+def footpad_csv(tmp_path_factory, quick_footpad):
   from benchmarks.footpad import dataset
-  from sim.footpad import protocol, scene
+  from sim.footpad import protocol
   out = tmp_path_factory.mktemp("csv")
-  recs = {k: scene.generate(s)[0] for k, s in protocol.scenes(protocol.base(True, 0)).items()}
+  recs = quick_footpad
   train = recs["train"].on_path(*protocol.LS_PATHS, "asterisk")
   test = recs["test"].on_path()
   dataset.recording_csv(train, out / "train.csv", step=10)
@@ -204,14 +204,12 @@ def test_csv_round_trip_gives_the_python_paths_metrics(footpad_csv, tmp_path, me
   assert (pred.data[:, 4:] > 0).all()
 
 
-def test_the_shipped_example_is_what_the_simulator_writes(tmp_path):
+def test_the_shipped_example_is_what_the_simulator_writes(tmp_path, quick_footpad):
   import pathlib
   import calibrate
   from benchmarks.footpad import dataset
-  from sim.footpad import protocol, scene
   shipped = pathlib.Path(calibrate.__file__).parent / "examples"
-  dataset.example_csv(tmp_path, {k: scene.generate(s)[0] for k, s in
-                                 protocol.scenes(protocol.base(True, 0)).items()})
+  dataset.example_csv(tmp_path, quick_footpad)
   for name in ("train.csv", "test.csv"):
     a, b = csvfile.read(shipped / name), csvfile.read(tmp_path / name)
     assert a.names == b.names and a.units == b.units and a.data.shape == b.data.shape

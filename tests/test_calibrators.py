@@ -55,7 +55,7 @@ def table(tmp_path_factory):
   from sim.footpad import protocol
   ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"),
                 settings=protocol.base(quick=True, seed=0), show_progress=False)
-  results = footpad_table.run_table(ctx, ("asterisk",), seeds=1)["results"]
+  results = footpad_table.run_table(ctx, ("asterisk",), seeds=1).data["results"]
   return {**results, "out": ctx.out}
 
 

@@ -75,8 +75,13 @@ def test_the_report_finds_the_envelope_and_the_parameter_each_metric_follows(tmp
   monkeypatch.setattr(envelope, "evaluate", synthetic)
   ctx = Context(quick=True, seed=3, out=tmp_path, settings=envelope.Envelope(designs=16),
                 show_progress=False, executor=executors.ExecutorSpec("serial"))
-  out = envelope.run(ctx)
+  result = envelope.run(ctx)
+  out = result.data
   shear = [95.0 - 30.0 * d["values"]["adc.hysteresis"] / 0.012 for d in out["designs"]]
+  # metrics.csv's rows carry the method and axis the cell scores, not a key's spelling
+  low = [r for r in result.rows if (r.group, r.method, r.axis, r.metric) ==
+         ("envelope/test/min", "LSANN", "X", "r2_pct")]
+  assert len(low) == 1 and low[0].value == pytest.approx(min(shear))
   row = out["envelope"]["LSANN X r2_pct"]
   assert (row["min"], row["median"], row["max"]) == pytest.approx(
       (min(shear), np.median(shear), max(shear)))

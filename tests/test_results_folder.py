@@ -30,9 +30,9 @@ def test_the_folder_holds_manifest_metrics_csv_and_table(finished, capsys):
 
 def test_metrics_csv_holds_every_number_of_metrics_json(finished):
   metrics = files.from_json((finished / "metrics.json").read_text())
-  rows = outputs.read_metric_rows(finished / "metrics.csv")
-  assert len(rows) == len(outputs.metric_rows(metrics))
-  by_metric = {(r["group"], r["metric"]): r["value"] for r in rows}
+  rows = outputs.read_rows(finished / "metrics.csv")
+  assert len(rows) == len(outputs.plain(metrics))  # shell_geometry: no method, no axis
+  by_metric = {(r.group, r.metric): r.value for r in rows}
   assert by_metric[("", "wall_seconds")] == metrics["wall_seconds"]
 
 
@@ -46,12 +46,15 @@ def test_table_md_is_what_the_run_printed(tmp_path, capsys):
     assert line in printed
 
 
-def test_metric_rows_name_method_axis_and_metric():
-  rows = outputs.metric_rows({"results": {"LSANN": {"X": {"r2_pct": 90.0}}}, "per_seed": [
-      {"NN": {"Z": {"rmse": 1.5}}}], "flag": True, "name": "x"})
-  assert rows == [
-      {"group": "results", "method": "LSANN", "axis": "X", "metric": "r2_pct", "value": 90.0},
-      {"group": "per_seed/0", "method": "NN", "axis": "Z", "metric": "rmse", "value": 1.5}]
+def test_rows_take_method_and_axis_from_the_result_never_from_key_spelling():
+  data = {"results": {"LSANN": {"X": {"r2_pct": 90.0}}}, "per_seed": [{"NN": {"Z": {
+      "rmse": 1.5}}}], "flag": True, "name": "x"}
+  assert outputs.plain(data) == [
+      outputs.Row("results/LSANN/X", "", "", "r2_pct", 90.0),
+      outputs.Row("per_seed/0/NN/Z", "", "", "rmse", 1.5)]
+  scored = outputs.scored("results", data["results"], {"LSANN": {"X": {"r2_pct": 0.5}}})
+  assert scored == [outputs.Row("results", "LSANN", "X", "r2_pct", 90.0, 0.5)]
+  assert outputs.plain(data, skip=(("results",), ("per_seed", "*", "NN"))) == []
 
 
 def test_compare_prints_the_shared_metrics_side_by_side(finished, tmp_path, capsys):
@@ -105,9 +108,17 @@ def test_training_closes_its_progress_when_it_stops_early():
 
 
 def test_compare_puts_the_headline_results_first():
-  old = [{"group": g, "method": "LS", "axis": "X", "metric": "rmse", "value": 1.0}
-         for g in ("timing", "results", "per_seed/0")]
-  new = [dict(r, value=2.0) for r in old]
+  old = [outputs.Row(g, "LS", "X", "rmse", 1.0) for g in ("timing", "results", "per_seed/0")]
+  new = [outputs.Row(r.group, r.method, r.axis, r.metric, 2.0) for r in old]
   lines = outputs.compare_lines(old, new)
   assert lines[1].startswith("results LS X rmse") and lines[2].startswith("timing")
   assert len(lines) == 3  # the per-seed row left out
+
+
+def test_compare_marks_a_change_within_the_seeds_spread():
+  old = [outputs.Row("results", "NN", "X", "r2_pct", 90.0, 2.0),
+         outputs.Row("results", "NN", "Y", "r2_pct", 90.0, 2.0)]
+  new = [outputs.Row("results", "NN", "X", "r2_pct", 91.0, 1.5),  # within: ~
+         outputs.Row("results", "NN", "Y", "r2_pct", 95.0, 1.5)]  # beyond: a change
+  lines = outputs.compare_lines(old, new)
+  assert lines[1].endswith(" ~") and not lines[2].endswith("~") and "~:" in lines[-1]

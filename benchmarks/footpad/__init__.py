@@ -18,8 +18,10 @@ def recordings(ctx, base=None) -> dict:
   """{"train", "test"}: (recording, timing) of the protocol for `base` (default the run's
   settings), from the cache when simulated before."""
   from sim.footpad import protocol, scene
-  return {name: scene.generate(s, ctx.progress(f"footpad {name} episodes"), ctx.use_cache)
-          for name, s in protocol.scenes(ctx.settings if base is None else base).items()}
+  out = {name: scene.generate(s, ctx.progress(f"footpad {name} episodes"), ctx.use_cache)
+         for name, s in protocol.scenes(ctx.settings if base is None else base).items()}
+  ctx.used(*(rec for rec, _ in out.values()))
+  return out
 
 
 def clock(rec):

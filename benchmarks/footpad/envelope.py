@@ -38,6 +38,7 @@ import enum
 
 import numpy as np
 
+from benchmarks import outputs
 from benchmarks.registry import register
 from util import fields
 from util.fields import setting
@@ -146,6 +147,7 @@ def evaluate(point: dict) -> dict:
   out["iteration_ratio"] = float(np.median([a[2] / max(b[2], 1)
                                             for a, b in zip(runs["LSANN"], runs["NN"])]))
   out["slip"] = float(np.mean(recs["train"].slip[recs["train"].phase == 1]))
+  out["recordings"] = [r.stem for r in recs.values() if r.stem]
   return out
 
 
@@ -167,7 +169,7 @@ def sensitivity(units: np.ndarray, target: np.ndarray) -> tuple[dict[str, float]
           settings=settings, tags=("footpad", "paper", "envelope", "sweep"))
 def run(ctx) -> dict:
   from benchmarks import executors
-  from benchmarks.footpad import table
+  from sim.footpad import paper as paper_lib
   from sim.footpad import protocol, scene as scene_lib
   s = ctx.settings
   base = protocol.base(ctx.quick, ctx.seed)
@@ -190,6 +192,7 @@ def run(ctx) -> dict:
   if len(done) < 2:
     raise RuntimeError("fewer than two designs finished: see the failures above")
   rows = [results[k] for k in done]
+  ctx.used(*(stem for r in rows for stem in r.get("recordings", ())))
 
   def envelope(values, paper):
     lo, med, hi = np.min(values), np.median(values), np.max(values)
@@ -197,19 +200,24 @@ def run(ctx) -> dict:
     return {"min": float(lo), "median": float(med), "max": float(hi), "paper": paper,
             "paper_inside": inside}
 
-  table_rows = {}
+  # (group, method, axis, metric): envelope; the printed name is the first three that are set
+  cells = {}
   ctx.print(f"\n{'metric':26s} {'min':>8s} {'median':>8s} {'max':>8s} {'paper':>8s}  inside")
   for m in ("LS", "LSANN", "NN"):
     for ax in ("Z", "Y", "X"):
       for key, i in (("nrmse_pct", 1), ("r2_pct", 2)):
-        paper = table.PAPER_TABLE1.get(m, {}).get(ax)
-        table_rows[f"{m} {ax} {key}"] = envelope([r[m][ax][key] for r in rows],
-                                                 paper[i] if paper else None)
+        paper = paper_lib.TABLE1.get(m, {}).get(ax)
+        cells[("test", m, ax, key)] = envelope([r[m][ax][key] for r in rows],
+                                               paper[i] if paper else None)
   for ax in ("Z", "Y", "X"):
-    table_rows[f"LS strokes {ax} nrmse_pct"] = envelope(
-        [r["LS_train"][ax]["nrmse_pct"] for r in rows], table.PAPER_LS_TRAIN_NRMSE[ax])
-  table_rows["LSANN/NN time"] = envelope([r["time_ratio"] for r in rows], 59.0 / 144.5)
-  table_rows["LSANN/NN epochs"] = envelope([r["iteration_ratio"] for r in rows], 59.0 / 144.5)
+    cells[("strokes", "LS", ax, "nrmse_pct")] = envelope(
+        [r["LS_train"][ax]["nrmse_pct"] for r in rows], paper_lib.LS_TRAIN_NRMSE[ax])
+  ratio = paper_lib.MINUTES["LSANN"] / paper_lib.MINUTES["NN"]
+  cells[("ratio", "", "", "time_lsann_over_nn")] = envelope([r["time_ratio"] for r in rows],
+                                                            ratio)
+  cells[("ratio", "", "", "epochs_lsann_over_nn")] = envelope(
+      [r["iteration_ratio"] for r in rows], ratio)
+  table_rows = {_cell_name(k): e for k, e in cells.items()}
   for name, e in table_rows.items():
     paper = f"{e['paper']:8.2f}" if e["paper"] is not None else f"{'':8s}"
     inside = {True: "yes", False: "no", None: ""}[e["paper_inside"]]
@@ -255,9 +263,41 @@ def run(ctx) -> dict:
       ctx.print(f"  {param:32s} {share:6.1%}")
   ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
             f"on {ctx.executor.kind}")
-  return {"ranges": {k: list(v) for k, v in RANGES.items()}, "designs": [
+  data = {"ranges": {k: list(v) for k, v in RANGES.items()}, "designs": [
               {"values": points[k]["values"], **results[k]} for k in done],
           "envelope": table_rows, "x_better_than_y": x_better, "stroke_fit_split": split,
           "sensitivity": sensitivities,
           "failures": [dataclasses.asdict(f) for f in failures],
           "speed": {"seconds": seconds, "per_design": seconds / len(rows)}}
+  return outputs.Result(data, tuple(_rows(data, cells, done)))
+
+
+def _cell_name(cell: tuple) -> str:
+  group, method, axis, metric = cell
+  if group == "ratio":
+    return {"time_lsann_over_nn": "LSANN/NN time", "epochs_lsann_over_nn": "LSANN/NN epochs"}[
+        metric]
+  return f"{method}{' strokes' if group == 'strokes' else ''} {axis} {metric}"
+
+
+def _rows(data: dict, cells: dict, done: list) -> list:
+  """metrics.csv: the envelope's cells and each design's scores with their method and axis,
+  the rest (values drawn, sensitivities, speed) as plain numbers."""
+  out = []
+  for (group, m, ax, metric), e in cells.items():
+    for stat in ("min", "median", "max", "paper"):
+      if e[stat] is not None:
+        out.append(outputs.Row(f"envelope/{group}/{stat}", m, ax, metric, float(e[stat])))
+  for k, d in zip(done, data["designs"]):
+    out += outputs.scored(f"design/{k}/test", {m: d[m] for m in ("LS", "LSANN", "NN")})
+    out += outputs.scored(f"design/{k}/strokes", {"LS": d["LS_train"], "POLY": d["POLY3_train"]})
+  out += outputs.scored("stroke_fit_split", {
+      m: {ax: {"nrmse_pct": v[m if m == "LS" else "cubic"]} for ax, v in data[
+          "stroke_fit_split"].items()} for m in ("LS", "POLY")})
+  out += [outputs.Row("x_better_than_y", m, "", "share_of_designs", v)
+          for m, v in data["x_better_than_y"].items()]
+  return out + outputs.plain(data, skip=(("envelope",), ("designs", "*", "LS"),
+                                         ("designs", "*", "LSANN"), ("designs", "*", "NN"),
+                                         ("designs", "*", "LS_train"),
+                                         ("designs", "*", "POLY3_train"),
+                                         ("stroke_fit_split",), ("x_better_than_y",)))

@@ -116,6 +116,7 @@ def _run(ctx) -> dict:
   from sim.footpad import protocol, scene as scene_lib
   scene = protocol.scenes(ctx.settings)["train"]
   rec, _ = scene_lib.generate(scene, ctx.progress("train episodes"), ctx.use_cache)
+  ctx.used(rec)
   data = rec.on_path("asterisk")
   n_want = QUICK_SAMPLES if ctx.quick else SAMPLES
   pick = np.random.default_rng(np.random.SeedSequence([ctx.seed, 2])).permutation(len(data))

@@ -27,15 +27,12 @@ import numpy as np
 
 from benchmarks import footpad
 from benchmarks.registry import register
+from sim.footpad import paper
 
 AXES = ("X", "Y", "Z")
 METHODS = ("LS", "LSANN", "NN")
-PAPER_TABLE1 = {  # Table I, test paths: RMSE N, NRMSE %, R2 %
-    "LSANN": {"Z": (2.58, 1.17, 99.78), "Y": (12.84, 10.14, 72.22), "X": (10.48, 8.30, 81.03)},
-    "NN": {"Z": (2.42, 1.10, 99.90), "Y": (12.63, 9.98, 79.02), "X": (11.17, 8.85, 83.62)},
-}
-PAPER_LS_TRAIN_NRMSE = {"Z": 0.42, "Y": 5.72, "X": 9.63}  # Sec. III-B
-PAPER_MINUTES = {"LSANN": 59.0, "NN": 144.5}
+PAPER_TABLE1, PAPER_LS_TRAIN_NRMSE, PAPER_MINUTES = paper.TABLE1, paper.LS_TRAIN_NRMSE, \
+    paper.MINUTES
 SEEDS = 5  # every run, --quick included: medians over five seeds
 BLOCK_SEEDS = 2  # seeds trained again with the blocks validation split
 BLOCK = 1000  # samples: 1 s at the footpad's 1 kHz
@@ -140,13 +137,47 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
   _predictions_and_figures(ctx, recs["train"], test, on_test)
   general = _generalisation(ctx, fitted)
   blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
-  return {"results": results, "LS_train": ls_train, "per_seed": per_seed,
+  data = {"results": results, "LS_train": ls_train, "per_seed": per_seed,
           "validation_blocks": blocks, "generalisation": general,
           "comparison": comparison, "seeds": child,
           "paper": {"table1": PAPER_TABLE1, "LS_train_nrmse_pct": PAPER_LS_TRAIN_NRMSE,
-                    "training_minutes": PAPER_MINUTES, "iteration_ratio": 59.0 / 144.5},
+                    "training_minutes": PAPER_MINUTES, "iteration_ratio": paper.TIME_RATIO},
           "samples": {"ls_train": len(strokes), "nn_train": len(nn_train), "test": len(test)},
           "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
+  from benchmarks import outputs
+  return outputs.Result(data, tuple(_rows(data)))
+
+
+def _rows(data: dict) -> list:
+  """metrics.csv: every score with its method and axis (the networks' medians with their
+  spread over the seeds), the rest as plain numbers."""
+  from benchmarks import outputs
+  results, per_seed = data["results"], data["per_seed"]
+  nets = ("LSANN", "NN")
+  spread = {m: {ax: {k: float(np.std([r[m]["test"][ax][k] for r in per_seed]))
+                     for k in per_seed[0][m]["test"][ax]} for ax in AXES} for m in nets}
+  out = outputs.scored("results", {m: {ax: results[m][ax] for ax in AXES} for m in METHODS},
+                       spread)
+  out += [outputs.Row("results/train", m, "", k, v) for m in METHODS
+          for k, v in results[m]["train"].items()]
+  out += outputs.scored("LS_train", {"LS": data["LS_train"]})
+  for i, r in enumerate(per_seed):
+    out += outputs.scored(f"per_seed/{i}/test", {m: r[m]["test"] for m in nets})
+  for m in nets:
+    for i, r in enumerate(data["validation_blocks"].get(m, [])):
+      out += outputs.scored(f"validation_blocks/{i}/test", {m: r["test"]})
+  general = data["generalisation"]
+  out += outputs.scored("generalisation", {m: general[m] for m in METHODS if m in general})
+  out += outputs.scored("paper/table1", {m: {ax: dict(zip(("rmse", "nrmse_pct", "r2_pct"), v))
+                                             for ax, v in t.items()}
+                                         for m, t in PAPER_TABLE1.items()})
+  out += outputs.scored("paper/LS_train", {"LS": {ax: {"nrmse_pct": v} for ax, v in
+                                                  PAPER_LS_TRAIN_NRMSE.items()}})
+  return out + outputs.plain(data, skip=(
+      ("results",), ("LS_train",), ("per_seed", "*", "LSANN", "test"),
+      ("per_seed", "*", "NN", "test"), ("validation_blocks", "*", "*", "test"),
+      *((("generalisation", m) for m in METHODS)), ("paper", "table1"),
+      ("paper", "LS_train_nrmse_pct")))
 
 
 def _predictions_and_figures(ctx, train, test, on_test: dict) -> None:
@@ -197,6 +228,7 @@ def _generalisation(ctx, fitted: dict) -> dict:
     return {}
   scene = dataclasses.replace(ctx.settings, paths=("square",), z_levels=between)
   rec, _ = scene_lib.generate(scene, ctx.progress("footpad square episodes"), ctx.use_cache)
+  ctx.used(rec)
   held = rec.on_path()
   truth = held.wrench[:, :3]
   out = {"path": "square", "z_levels_mm": [z * 1e3 for z in between], "samples": len(held)}
@@ -265,7 +297,7 @@ def _print_table(ctx, results, comparison, n_seeds, per_seed) -> None:
         f"{_STOPS.get(s, s)} {stops.count(s)}/{len(stops)}" for s in sorted(set(stops))))
   ir = comparison["iteration_ratio_to_nn_val_mse"]
   ctx.print(f"LSANN/NN-only training time {comparison['time_ratio_lsann_over_nn']:.2f} "
-            f"(paper {59.0 / 144.5:.2f})")
+            f"(paper {paper.TIME_RATIO:.2f})")
   ctx.print("LSANN iterations to NN-only's final validation MSE / NN-only's: " +
             (f"{ir:.2f}" if ir is not None else "never reached") +
             f" ({comparison['seeds_where_lsann_reached_nn_val_mse']}/{n_seeds} seeds; paper 0.41)")

@@ -9,11 +9,10 @@ from typing import Any, Optional
 
 import numpy as np
 
-AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+from sim.shell import paper
+
+AXES = paper.AXES
 PRINT_UNITS = np.array([1, 1, 1, 1e3, 1e3, 1e3])  # SI to the paper's N and mN m
-# the paper's Table II, SkinProc row: range, resolution (N and N m)
-PAPER_TABLE2 = {"Fx": (2.3, 0.0054), "Fy": (2.1, 0.0167), "Fz": (1.9, 0.0051),
-                "Mx": (0.096, 0.00072), "My": (0.127, 0.00025), "Mz": (0.138, 0.00044)}
 # Settings the protocol sets itself, with the reason a --set of them is refused.
 FIXED = {"frames": "the protocol runs the paper's frame counts (a tenth with --quick)",
          "seed": "use --seed"}
@@ -56,6 +55,7 @@ def recordings(ctx, board: Optional[Any] = None) -> tuple[dict, dict, dict]:
   for name, scene in scenes.items():
     runs[name], timings[name] = scene_lib.generate(scene, ctx.progress(f"{name} frames"),
                                                    ctx.use_cache)
+  ctx.used(*runs.values())
   return scenes, runs, timings
 
 

@@ -28,7 +28,7 @@ def params_settings(quick: bool, seed: int):
 
 
 @register("shell_geometry", "shell height map (rays) vs the paper's Eqn 3: rank, condition, "
-          "slope sweep, speed", settings=params_settings, tags=("shell", "design"))
+          "slope sweep, speed", settings=params_settings, tags=("shell", "design", "fast"))
 def run(ctx) -> dict:
   from models import shell
   from sim.shell import geometry as geo

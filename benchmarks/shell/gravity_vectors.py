@@ -45,7 +45,7 @@ def compare(force: np.ndarray, gravity: np.ndarray) -> dict:
           "sequence A-I", settings=shell.protocol_settings,
           fixed={**shell.FIXED, "downward_bias": "the benchmark calibrates with 0 and 0.8",
                  "params.payload": "the turn carries the paper's 50 g"},
-          tags=("shell", "paper", "dynamics"))
+          tags=("shell", "paper", "dynamics", "fast"))
 def run(ctx) -> dict:
   from sim.shell import protocol, turn
   out = {}

@@ -14,13 +14,13 @@ from models import shell as model_lib
 
 from util import fields
 from util.fields import setting
-from sim.shell import geometry, photointerrupter, scene as scene_lib
+from sim.shell import geometry, paper, photointerrupter, scene as scene_lib
 
 AXES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 # The paper's load box (Table II ranges, N and N m), centred on zero.
-PAPER_RANGE = np.array([2.3, 2.1, 1.9, 0.096, 0.127, 0.138])
+PAPER_RANGE = np.array([paper.TABLE2[a][0] for a in AXES])
 # The paper's Table II resolutions (N and N m): each axis's scale in `objective`.
-PAPER_RESOLUTION = np.array([0.0054, 0.0167, 0.0051, 0.00072, 0.00025, 0.00044])
+PAPER_RESOLUTION = np.array([paper.TABLE2[a][1] for a in AXES])
 # The ShellParams fields that hold one number: the axes a sweep can take.
 AXIS_FIELDS = tuple(f.name for f in dataclasses.fields(model_lib.ShellParams)
                     if fields.types_of(model_lib.ShellParams)[f.name] is float)

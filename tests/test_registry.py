@@ -1,0 +1,51 @@
+"""Every registered benchmark through the same checks (dm_control's suite_test): those tagged
+fast run --quick twice and give the same numbers (timings aside) and a results folder whose
+metrics.csv names a method and an axis on every per-axis row."""
+
+import json
+import re
+
+import pytest
+
+from benchmarks import outputs, registry, run as cli
+
+BENCHMARKS = registry.all_benchmarks()
+FAST = sorted(n for n, b in BENCHMARKS.items() if "fast" in b.tags)
+# the papers' per-axis scores: a row of one of these scores one method on one axis
+PER_AXIS = {"rmse", "nrmse_pct", "r2_pct", "median_pct", "worst_pct"}
+AXES = {"X", "Y", "Z", "Fx", "Fy", "Fz", "Mx", "My", "Mz"}
+# what a run measures of the machine, not of the physics or the fits
+TIMING = re.compile(r"second|wall|_s$|per_s|steps_s|frames_s|per_second|speed|timing|_time")
+
+
+def test_some_benchmarks_of_both_rigs_are_fast():
+  assert {t for n in FAST for t in BENCHMARKS[n].tags} >= set(registry.RIGS)
+
+
+@pytest.mark.parametrize("name", sorted(BENCHMARKS))
+def test_every_benchmark_checks_its_default_command(name, tmp_path, capsys):
+  assert cli.main([name, "--quick", "--check", "--out", str(tmp_path / "o")]) == 0
+  assert f"ok: {name} would write to" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", FAST)
+def test_a_fast_benchmark_twice_gives_the_same_numbers_and_a_named_table(name, tmp_path):
+  tables = []
+  for k in range(2):
+    out = tmp_path / f"run{k}"
+    assert cli.main([name, "--quick", "--no-progress", "--out", str(out)]) == 0
+    tables.append(outputs.read_rows(out / "metrics.csv"))
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "metrics.csv" in manifest["files"] and "manifest.json" in manifest["files"]
+  a, b = ([r for r in t if not TIMING.search(f"{r.group}/{r.metric}")] for t in tables)
+  assert [(r.group, r.method, r.axis, r.metric) for r in a] == \
+      [(r.group, r.method, r.axis, r.metric) for r in b]
+  changed = [(x, y) for x, y in zip(a, b) if x.value != y.value and not (
+      x.value != x.value and y.value != y.value)]  # NaN is NaN
+  assert not changed, changed[:3]
+  for r in tables[0]:
+    if r.metric in PER_AXIS:
+      assert r.method and r.axis, r
+    # an axis spelled into a group is an axis the row does not name
+    assert not set(r.group.split("/")) & AXES, r
