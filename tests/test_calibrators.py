@@ -59,6 +59,7 @@ def table(tmp_path_factory):
   return {**results, "out": ctx.out}
 
 
+@pytest.mark.slow  # Table I at quick scale: about 20 s
 def test_predictions_file_reproduces_the_tables_errors(table):
   from calibrate import metrics
   with np.load(table["out"] / "predictions.npz") as z:
@@ -75,6 +76,7 @@ def test_predictions_file_reproduces_the_tables_errors(table):
     assert (table["out"] / "figures" / f"{name}.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow  # Table I at quick scale: about 20 s
 def test_z_is_estimated_far_better_than_shear(table):
   for m in footpad_table.METHODS:
     z = table[m]["Z"]["nrmse_pct"]
@@ -85,12 +87,14 @@ def test_z_is_estimated_far_better_than_shear(table):
                    "is 93.8-96.7 % (quick, measured), above the paper's 72-84 %; the paper lies "
                    "inside the envelope of the sourced ranges (footpad_envelope --quick), not "
                    "at its nominal point")
+@pytest.mark.slow  # Table I at quick scale: about 20 s
 def test_shear_r2_in_the_papers_neighbourhood(table):
   for m in footpad_table.METHODS:
     for ax in ("X", "Y"):
       assert 50.0 < table[m][ax]["r2_pct"] < 95.0, (m, ax)
 
 
+@pytest.mark.slow  # Table I at quick scale: about 20 s
 def test_lsann_and_nn_agree_within_one_and_a_half_times(table):
   for ax in ("X", "Y", "Z"):
     a, b = table["LSANN"][ax]["nrmse_pct"], table["NN"][ax]["nrmse_pct"]

@@ -115,6 +115,7 @@ def corners():
   return out
 
 
+@pytest.mark.slow
 def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corners):
   """The CI trend check of the envelope: the paper's shear R2 (Table I) lies inside the span
   of the sourced ranges, above the corner with the most history, below the one with none."""

@@ -36,6 +36,7 @@ def test_boussinesq_closed_form():
   assert p[0] == p[1] == 0
 
 
+@pytest.mark.slow
 def test_thick_layer_tends_to_boussinesq():
   thin, thick, thicker = (_point_load_ratio(h) for h in (0.006, 0.024, 0.048))
   assert thin > 1.2  # a thin bonded layer concentrates stress over its rigid base

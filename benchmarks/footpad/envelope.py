@@ -18,17 +18,8 @@ NRMSE (squared standardised regression coefficients of a linear fit over the des
 that fit's R2). Finished designs are kept in DIR/points/, so an interrupted
 run resumes.
 
-Measured at paper scale (N = 32, seed 0, two worker processes on 2 cores: 12481 s, 390 s
-per design; each design is about 13 min of one core): the paper lies inside the envelope
-for every network metric but LSANN's Y (R2 81.0-99.4 % against 72.22 %; NN-only's Y
-48.2-98.9 % holds its 79.02 %; X R2 -18-98.7 % holds both 81-84 %), and the Z NRMSE holds
-it (0.27-2.37 % against 1.17 %). The dies' offset drift carries 65 % of the variance of
-shear R2 (shear is read from small differences between dies, which one die's drifting
-offset mimics), the fast relaxation time 18 %, mu0 8 %, static over kinetic friction 4 %,
-hysteresis 3 % (the linear fit over the designs explains 79 %, 21 residual degrees of
-freedom). The linear stroke NRMSE stays below the paper's (X 3.6-6.7 % against 9.63 %,
-Y 2.8-4.2 % against 5.72 %); hysteresis carries 87 % of its variance, and a cubic on the
-same strokes leaves a median 3.35/1.86 %. No design estimates X better than Y.
+What the envelope measured at paper scale (where the paper lies, which parameter carries the
+shear error) is in the README's "Known gaps against the papers".
 """
 
 from __future__ import annotations

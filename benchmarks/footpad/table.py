@@ -7,14 +7,8 @@ the given paths at every Z level (Sec. III-C); all three are tested on Testing P
 Networks train from several seeds (spawned from the run's one seed) and the table reports
 medians; per-seed numbers go to metrics.json, fitted estimators to DIR/estimators/.
 
-Known gap (measured): at the sourced nominal values of every effect (the protocol's default)
-the networks still report simulated shear better than the paper (quick: test R2 93.8-96.7 %
-against the paper's 72-84 %); the paper's shear R2 lies inside the envelope of the sourced
-ranges but for LSANN's Y (`footpad_envelope`, paper scale), whose shear error the history
-effects carry (the dies' offset drift most, then relaxation, friction and hysteresis), which
-no calibration of the counts can learn. The linear fit on
-the plain strokes stays better than the paper's (Y/X NRMSE 3.0/4.0 % against 5.72/9.63 %;
-of it, a static nonlinearity a cubic removes and history, measured in `footpad_envelope`).
+Where the simulation and the paper differ, and the measured mechanism, is in the README's
+"Known gaps against the papers" (each figure with the command that measured it).
 """
 
 from __future__ import annotations
