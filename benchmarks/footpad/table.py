@@ -282,9 +282,9 @@ def _print_table(ctx, results, comparison, n_seeds, per_seed) -> None:
   ctx.print(f"\n{'training':9s} {'seconds':>9s} {'compile s':>10s} {'iterations':>11s}   paper")
   for m in METHODS:
     t = results[m]["train"]
-    paper = f"{PAPER_MINUTES[m]} min" if m in PAPER_MINUTES else ""
+    cited = f"{PAPER_MINUTES[m]} min" if m in PAPER_MINUTES else ""
     ctx.print(f"{m:9s} {t['seconds']:9.2f} {t['compile_seconds']:10.2f} {t['iterations']:11.0f}"
-              f"   {paper}")
+              f"   {cited}")
   for m in ("LSANN", "NN"):
     stops = [r[m]["train"]["stop"] for r in per_seed]
     ctx.print(f"{m} training stopped: " + ", ".join(
