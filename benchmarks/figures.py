@@ -18,7 +18,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from calibrate.figures import _pyplot, _thin, _title, over_time, save, scatter  # noqa: F401
+from calibrate.figures import MAX_POINTS, _pyplot, _thin, _title, over_time, save, scatter  # noqa: F401,E501
 
 def strokes(segments: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
             channels: Sequence[str], axes: Sequence[str], *, benchmark: str, seed: int,

@@ -89,8 +89,12 @@ def test_cli_errors_are_one_line(capsys):
   assert cli.main(["footpad_dataset", "--quick", "--set", "nope=1", "--no-progress"]) == 2
   err = capsys.readouterr().err.strip()
   assert err.startswith("error: unknown setting 'nope'") and "\n" not in err
-  with pytest.raises(SystemExit):
-    cli.main(["no_such_benchmark"])
+  assert cli.main(["no_such_benchmark"]) == 2
+  err = capsys.readouterr().err.strip()
+  assert err.startswith("error: unknown benchmark 'no_such_benchmark'") and "\n" not in err
+  assert cli.main(["asterisk_pth"]) == 2  # a typo gets the name, not the list of 17
+  assert capsys.readouterr().err.strip() == \
+      "error: unknown benchmark 'asterisk_pth': did you mean asterisk_path?"
   assert cli.main(["--list"]) == 0
 
 
