@@ -92,7 +92,7 @@ def claim(out: pathlib.Path) -> Lock:
 # ---- what a finished run leaves in its folder -------------------------------------------
 
 PACKAGES = ("mujoco", "numpy", "scipy", "jax", "jaxlib", "jaxopt", "matplotlib", "trimesh")
-Row = metrics.Row
+Row, scored = metrics.Row, metrics.scored
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,24 +104,9 @@ class Result:
     data: everything for metrics.json (nested, JSON-able).
     rows: metrics.csv: every number once, a per-method and per-axis number with its method
       and axis (`scored`), the rest with neither (`plain`).
-    recordings: cache stems of the recordings the run used, for the manifest (also those
-      of sweep workers in other processes).
   """
   data: dict
   rows: tuple = ()
-  recordings: tuple[str, ...] = ()
-
-
-def scored(group: str, by_method: dict, spread: dict | None = None) -> list[Row]:
-  """The rows of {method: {axis: {metric: value}}}; `spread`, of the same shape, gives each
-  value's seed-to-seed standard deviation."""
-  out = []
-  for m, axes in by_method.items():
-    for ax, per in axes.items():
-      for k, v in per.items():
-        sd = spread[m][ax][k] if spread and m in spread else float("nan")
-        out.append(Row(group, m, ax, k, float(v), float(sd)))
-  return out
 
 
 def plain(data: Any, path: tuple[str, ...] = (), skip: tuple[tuple[str, ...], ...] = ()
@@ -187,17 +172,15 @@ def write_run(out: pathlib.Path, result: Result, head: dict, lines: list[str], t
               manifest: dict) -> None:
   """Fills the results folder of a finished run: metrics.json (`head`, then the result's
   data), metrics.csv (its rows, then `head`'s numbers), table.md (the printed `lines` under
-  `title`) and manifest.json (`manifest`, with the recordings used and the folder's
-  files)."""
+  `title`) and manifest.json (`manifest`, with the folder's files)."""
   out = pathlib.Path(out)
   files.write_text(out / "metrics.json", files.json_text({**head, **result.data}, indent=1,
                                                           sort_keys=True, default=str))
   files.write_text(out / "metrics.csv", metrics.csv_text(list(result.rows) + plain(head)))
   files.write_text(out / TABLE, title + "```\n" + "\n".join(lines) + "\n```\n")
-  manifest = {**manifest, "recordings": list(dict.fromkeys(result.recordings)),
-              "files": sorted(str(p.relative_to(out)) for p in out.rglob("*")
-                              if p.is_file() and not p.name.startswith("."))}
-  manifest["files"] = sorted(set(manifest["files"]) | {"manifest.json"})
+  written = {str(p.relative_to(out)) for p in out.rglob("*")
+             if p.is_file() and not p.name.startswith(".")}
+  manifest = {**manifest, "files": sorted(written | {"manifest.json"})}
   files.write_text(out / "manifest.json", files.json_text(manifest, indent=1, default=str))
 
 

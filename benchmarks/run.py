@@ -10,7 +10,6 @@ metrics.json, metrics.csv, table.md, and the benchmark's predictions and figures
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import pathlib
 import shlex
 import sys
@@ -140,11 +139,9 @@ def _main(argv: Optional[list[str]]) -> int:
     return 0
   if not args.name:
     parser.error("a benchmark name is required (see --list)")
-  if args.name not in benchmarks:
-    raise errors.unknown("benchmark", args.name, benchmarks, "python -m benchmarks.run --list")
+  bench = registry.get(args.name)
   if args.seed < 0:
     parser.error(f"--seed {args.seed} is out of range: allowed integers >= 0")
-  bench = benchmarks[args.name]
   if args.help:
     print(benchmark_help(bench, args.quick, args.seed))
     return 0
@@ -173,7 +170,7 @@ def _main(argv: Optional[list[str]]) -> int:
 
 
 def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path,
-         earlier: Optional[list[dict]], argv: list[str]) -> int:
+         earlier: Optional[list[outputs.Row]], argv: list[str]) -> int:
   from sim import cache
   spec = executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
                                 args.tls_cert, args.tls_key)
@@ -185,11 +182,8 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   t0 = time.perf_counter()
   try:
     result = bench.run(ctx)
-  except errors.UserError:
-    raise  # one line, from main
-  except KeyboardInterrupt:
-    print(INTERRUPTED, file=sys.stderr)
-    return cli.INTERRUPTED
+  except (errors.UserError, KeyboardInterrupt):
+    raise  # one line, from main (util.cli.run)
   except Exception:  # not the user's mistake: a short message, the traceback in the results
     return cli.internal_error(out / "traceback.txt")
   wall = time.perf_counter() - t0
@@ -207,13 +201,12 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
       "cache_dir": str(cache.cache_dir()), "started": started, "wall_seconds": wall,
       "rerun": "the command above at git_commit; with the same versions it gives the same "
                "bytes (every draw follows the seed)"}
-  result = dataclasses.replace(result, recordings=tuple(ctx.recordings) + result.recordings)
+  manifest["recordings"] = ctx.recordings
   outputs.write_run(out, result, head, ctx.lines, f"# {args.name}\n\n{bench.description}\n\n"
                     f"`{command}` (seed {args.seed})\n\n", manifest)
-  rows = list(result.rows)
   if earlier is not None:
     print(f"\ncompared with {args.compare}:")
-    print("\n".join(outputs.compare_lines(earlier, rows)))
+    print("\n".join(outputs.compare_lines(earlier, list(result.rows))))
   print(f"results in {out}/: table.md, metrics.csv, metrics.json, manifest.json"
         + (", predictions.npz" if (out / "predictions.npz").exists() else "")
         + (", figures/" if (out / "figures").is_dir() else ""))

@@ -90,8 +90,7 @@ def _method(text: str) -> str:
   """--method's value; a typo is answered with the closest method."""
   if text.lower() in METHODS:
     return text.lower()
-  raise argparse.ArgumentTypeError(str(errors.unknown("method", text, METHODS)).replace(
-      "unknown method ", ""))
+  raise argparse.ArgumentTypeError(str(errors.unknown("method", text, METHODS)))
 
 
 def _list(text: str) -> list[str]:
@@ -193,7 +192,7 @@ def evaluate(args) -> int:
   text = files.json_text(metrics, indent=1)
   files.write_text(out / "metrics.json", text)
   files.write_text(out / "metrics.csv", metrics_lib.csv_text(
-      [r for n in names for r in metrics_lib.rows({n: result[n]}, est.kind.value)]))
+      metrics_lib.scored("results", {est.kind.value: result})))
   t = table.column(args.time_column)
   t = np.arange(len(x), dtype=float) if t is None else t
   label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"

@@ -91,10 +91,16 @@ class Row:
   spread: float = float("nan")
 
 
-def rows(scores: dict, method: str, group: str = "results") -> list[Row]:
-  """The rows of one method's `summary` ({axis: {metric: value}})."""
-  return [Row(group, method, axis, metric, float(v))
-          for axis, per in scores.items() for metric, v in per.items()]
+def scored(group: str, by_method: dict, spread: dict | None = None) -> list[Row]:
+  """The rows of {method: {axis: {metric: value}}} (each method's `summary`); `spread`, of
+  the same shape, gives each value's seed-to-seed standard deviation."""
+  out = []
+  for m, axes in by_method.items():
+    for ax, per in axes.items():
+      for k, v in per.items():
+        sd = spread[m][ax][k] if spread and m in spread else float("nan")
+        out.append(Row(group, m, ax, k, float(v), float(sd)))
+  return out
 
 
 def csv_text(table: list[Row]) -> str:

@@ -164,9 +164,8 @@ def parse(text: str, tp) -> Any:
 
 def _close(text: str, choices) -> str:
   """"; did you mean X?" for a typo of one of `choices`, else ""."""
-  import difflib
-  close = difflib.get_close_matches(text, [str(c) for c in choices], n=1, cutoff=0.6)
-  return f"; did you mean {close[0]}?" if close else ""
+  close = errors.closest(text, choices)
+  return f"; did you mean {close}?" if close else ""
 
 
 def _type_text(tp) -> str:

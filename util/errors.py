@@ -29,15 +29,21 @@ class SimulationError(UserError, RuntimeError):
   a run."""
 
 
+def closest(name: str, allowed) -> str | None:
+  """The allowed name `name` is a typo of, if one is close enough (difflib's 0.6 ratio)."""
+  import difflib
+  close = difflib.get_close_matches(str(name), [str(a) for a in allowed], n=1, cutoff=0.6)
+  return close[0] if close else None
+
+
 def unknown(what: str, name: str, allowed, where: str = "") -> SettingError:
   """The error for a name that is not one of `allowed`, in one line: the closest allowed
   name as "did you mean ...?" where one is close (a typo), else the allowed names (or, when
   there are many, `where` to find them)."""
-  import difflib
   allowed = [str(a) for a in allowed]
-  close = difflib.get_close_matches(str(name), allowed, n=1, cutoff=0.6)
+  close = closest(name, allowed)
   if close:
-    hint = f"did you mean {close[0]}?"
+    hint = f"did you mean {close}?"
   elif len(allowed) <= 12 or not where:
     hint = f"allowed {', '.join(allowed)}"
   else:

@@ -26,8 +26,7 @@ import numpy as np
 
 from models import footpad as model_lib
 
-from util import fields
-from util import errors
+from util import errors, fields
 from util.errors import SimulationError
 from util.fields import setting
 from sim import physics, recording
