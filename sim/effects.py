@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import zlib
+from typing import Any, Callable
 
 import numpy as np
 
@@ -36,12 +37,44 @@ class Effect:
     reads: the settings (keys as --set spells them) that size it; they matter only while
       the effect is on.
     replaces: settings it takes the place of while it is on (they then change nothing).
+    needs: effects that must be on with it (it sizes or modifies theirs).
   """
   name: str
   kind: Kind
   doc: str
   reads: tuple[str, ...] = ()
   replaces: tuple[str, ...] = ()
+  needs: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class Step:
+  """One small function of a signal chain, run when any of `effects` is on.
+
+  Attributes:
+    effects: the declared effects it stands for (usually one; a shared clip may serve two).
+    fn: (values, chain) -> values; `chain` carries the rig's settings and the run's seed.
+  """
+  effects: tuple[Effect, ...]
+  fn: Callable[[Any, Any], Any]
+
+
+def run_steps(steps, values, on: frozenset, chain):
+  """Applies, in order, each step of `steps` whose effects meet the active set `on`."""
+  for step in steps:
+    if on.intersection(step.effects):
+      values = step.fn(values, chain)
+  return values
+
+
+def active(names, known: dict[str, Effect]) -> frozenset[Effect]:
+  """The declared effects a scene's `effects` names switch on (names checked first)."""
+  return frozenset(known[n] for n in check_effects(names, known))
+
+
+def missing_needs(names, known: dict[str, Effect]):
+  """(effect, needed effect) pairs where an effect in `names` needs one that is off."""
+  return [(n, need) for n in names for need in known[n].needs if need not in names]
 
 
 def unread(key: str, active, known: dict[str, Effect]) -> str | None:

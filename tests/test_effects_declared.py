@@ -1,13 +1,16 @@
 """Effects declare the settings they read and replace; a --set that changes nothing is refused."""
 
 import dataclasses
+import pathlib
+import re
 
 import numpy as np
 import pytest
 
 from sim import settings
-from sim.footpad import effects as footpad_effects, protocol, scene as footpad
-from sim.shell import effects as shell_effects, scene as shell
+from sim.effects import Kind
+from sim.footpad import effects as footpad_effects, protocol, scene as footpad, sensor_chain
+from sim.shell import effects as shell_effects, photointerrupter, scene as shell
 from util import errors
 
 RIGS = {"footpad": (footpad_effects.EFFECTS, protocol.base(True, 0)),
@@ -93,3 +96,34 @@ def test_the_thirion_coefficient_set_by_key_changes_the_recorded_counts():
   assert again.counts.tobytes() == recs["1.2"].counts.tobytes()
   diff = np.abs(recs["1.2"].counts - recs["2.5"].counts).max()
   assert diff > 1.0, diff  # counts, not float noise
+
+
+CHAINS = {"footpad": (footpad_effects.EFFECTS, sensor_chain.PRESSURE_STEPS
+                      + sensor_chain.COUNT_STEPS + sensor_chain.WRENCH_STEPS),
+          "shell": (shell_effects.EFFECTS, photointerrupter.STEPS)}
+
+
+@pytest.mark.parametrize("rig", CHAINS)
+def test_every_signal_step_stands_for_a_declared_signal_effect(rig):
+  table, steps = CHAINS[rig]
+  for step in steps:
+    for e in step.effects:
+      assert table.get(e.name) is e and e.kind is Kind.SIGNAL, (rig, e.name)
+
+
+def test_no_code_branches_on_an_effect_by_its_name():
+  """Effects are branched on as declared objects (a misspelt name fails at import, where
+  `"frction" in effects` would be silently false)."""
+  names = set(footpad_effects.EFFECTS) | set(shell_effects.EFFECTS)
+  pattern = re.compile(r"""["'](%s)["']\s+(not\s+)?in\b""" % "|".join(names))
+  root = pathlib.Path(__file__).resolve().parents[1]
+  hits = [f"{p.relative_to(root)}:{i}" for top in ("sim", "models", "benchmarks")
+          for p in (root / top).rglob("*.py")
+          for i, line in enumerate(p.read_text().splitlines(), 1) if pattern.search(line)]
+  assert not hits, hits
+
+
+def test_an_effect_that_needs_another_is_refused_without_it():
+  scene = dataclasses.replace(protocol.base(True, 0), effects=("pressure_friction",))
+  with pytest.raises(errors.SettingError, match="pressure_friction together with friction"):
+    scene.validate()

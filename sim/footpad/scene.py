@@ -31,7 +31,8 @@ from util.errors import SimulationError
 from util.fields import setting
 from sim import physics, recording
 from sim import effects as effects_lib
-from sim.effects import check_effects
+from sim.effects import active, check_effects
+from sim.footpad import effects as fx
 from sim.footpad import layer, sensor_chain, trajectories
 from sim.footpad.effects import EFFECTS, EffectName
 from sim.footpad.trajectories import PathName
@@ -93,10 +94,9 @@ class FootpadScene:
     yield all(0.0 <= z <= lim for z in self.z_levels), "z_levels", strain, self.z_levels
     yield (self.press_depth is None or self.press_depth <= lim, "press_depth",
            f"(0, {lim:.4g}] m or none", self.press_depth)
-    for name in ("pressure_friction", "stick_slip"):
-      yield (name not in self.effects or "friction" in self.effects, "effects",
-             f"{name} together with friction (it sets the frictional contact's "
-             f"coefficient)", self.effects)
+    for name, need in effects_lib.missing_needs(self.effects, EFFECTS):
+      yield False, "effects", f"{name} together with {need} (it works on {need}'s model)", \
+          self.effects
 
   def validate(self) -> None:
     """Raise ValueError naming the first setting outside its allowed range (and DataError
@@ -140,9 +140,9 @@ class FootpadScene:
 
 def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   """The scene's MuJoCo model, with the model effects it lists."""
-  effects = check_effects(scene.effects, EFFECTS)
-  return model_lib.build_spec(scene.params, friction="friction" in effects,
-                              viscoelastic="viscoelastic" in effects,
+  on = active(scene.effects, EFFECTS)
+  return model_lib.build_spec(scene.params, friction=fx.FRICTION in on,
+                              viscoelastic=fx.VISCOELASTIC in on,
                               stiffness=layer.element_stiffness(scene.params)).compile()
 
 
@@ -330,12 +330,13 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   scene.validate()
   t0 = time.perf_counter()
   effects = check_effects(scene.effects, EFFECTS)
+  on = active(effects, EFFECTS)
   model = compile_model(scene)
   kernel = layer.die_kernel(scene.params, scene.kernel)
   eps = episodes(scene, kernel)
   threads = threads or min(os.cpu_count() or 1, len(eps))
-  per_element = "pressure_friction" in effects
-  stick_slip = "stick_slip" in effects
+  per_element = fx.PRESSURE_FRICTION in on
+  stick_slip = fx.STICK_SLIP in on
   # each thread its own model when episodes set their own friction coefficients
   own = per_element or stick_slip
   models = [copy.copy(model) if own else model for _ in range(threads)]
@@ -354,7 +355,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   cnc_idx = model_lib.cnc_qpos_index(model)
   g = kernel.reshape(len(kernel), -1).T
   gc = None
-  if "p_delta" in effects:
+  if fx.P_DELTA in on:
     couples = layer.couple_kernel(scene.params, scene.kernel)
     gc = couples.reshape(len(couples), -1).T
 
@@ -381,7 +382,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     if gc is not None:
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
     slip = state_slip if state_slip is not None else \
-        slip_share(forces, mu) if "friction" in effects else np.zeros(len(forces))
+        slip_share(forces, mu) if fx.FRICTION in on else np.zeros(len(forces))
     chain = time.perf_counter() - t
     return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics_s,
                chain)

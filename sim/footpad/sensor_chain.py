@@ -13,7 +13,8 @@ import numpy as np
 
 from util import fields
 from util.fields import setting
-from sim.effects import check_effects, play, rng_for, wander
+from sim.effects import Step, active, play, rng_for, run_steps, wander
+from sim.footpad import effects as fx
 from sim.footpad.effects import EFFECTS
 
 ATMOSPHERE = 101.325e3  # Pa
@@ -100,33 +101,68 @@ def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
   Returns:
     counts (N, D) float64 and the plate wrench as measured (N, 6).
   """
-  effects = check_effects(effects, EFFECTS)
+  on = active(effects, EFFECTS)
   adc.validate()
-  p = np.asarray(pressure, dtype=np.float64)
-  if "hysteresis" in effects:
-    p = play(p, adc.hysteresis * MPX_SPAN / 2)
-  if "thermal_drift" in effects:
-    rng = rng_for(seed, "thermal_drift")
-    steps = adc.drift_time / dt
-    offset = wander(rng, p.shape, adc.drift_offset * MPX_SPAN, steps)
-    gain = 1.0 + wander(rng, p.shape, adc.drift_gain, steps)
-    p = p * gain + offset
-  if "gain_offset_spread" in effects:
-    rng = rng_for(seed, "gain_offset_spread")
-    gain = rng.normal(1.0, adc.gain_spread, p.shape[1])
-    offset = rng.normal(0.0, adc.offset_spread, p.shape[1])
-    p = p * gain + offset
-  if "adc_saturation" in effects:
-    p = np.clip(p, MPX_P_MIN - ATMOSPHERE, MPX_P_MAX - ATMOSPHERE)
-  counts = pressure_to_counts(p, adc)
-  if "sensor_noise" in effects:
-    counts = counts + rng_for(seed, "sensor_noise").normal(0.0, adc.noise_counts, counts.shape)
-  if "adc_saturation" in effects:
-    counts = np.clip(counts, 0.0, float(adc.full_scale))
-  if "adc_quantisation" in effects:
-    counts = np.floor(counts)
-  measured = np.array(wrench, dtype=np.float64)
-  if "ft_noise" in effects:
-    sd = np.array([0.125, 0.125, 0.25, 0.0075, 0.0075, 0.0075])
-    measured = measured + rng_for(seed, "ft_noise").normal(0.0, 1.0, measured.shape) * sd
+  chain = _Chain(adc, seed, dt)
+  p = run_steps(PRESSURE_STEPS, np.asarray(pressure, dtype=np.float64), on, chain)
+  counts = run_steps(COUNT_STEPS, pressure_to_counts(p, adc), on, chain)
+  measured = run_steps(WRENCH_STEPS, np.array(wrench, dtype=np.float64), on, chain)
   return counts, measured
+
+
+@dataclasses.dataclass(frozen=True)
+class _Chain:
+  """What the steps of one run read: the ADC settings, the run's seed, the sample time (s)."""
+  adc: AdcConfig
+  seed: int
+  dt: float
+
+
+def _hysteresis(p, c: _Chain):
+  return play(p, c.adc.hysteresis * MPX_SPAN / 2)
+
+
+def _thermal_drift(p, c: _Chain):
+  rng = rng_for(c.seed, fx.THERMAL_DRIFT.name)
+  steps = c.adc.drift_time / c.dt
+  offset = wander(rng, p.shape, c.adc.drift_offset * MPX_SPAN, steps)
+  gain = 1.0 + wander(rng, p.shape, c.adc.drift_gain, steps)
+  return p * gain + offset
+
+
+def _gain_offset_spread(p, c: _Chain):
+  rng = rng_for(c.seed, fx.GAIN_OFFSET_SPREAD.name)
+  gain = rng.normal(1.0, c.adc.gain_spread, p.shape[1])
+  offset = rng.normal(0.0, c.adc.offset_spread, p.shape[1])
+  return p * gain + offset
+
+
+def _sensor_range(p, c: _Chain):
+  return np.clip(p, MPX_P_MIN - ATMOSPHERE, MPX_P_MAX - ATMOSPHERE)
+
+
+def _sensor_noise(counts, c: _Chain):
+  return counts + rng_for(c.seed, fx.SENSOR_NOISE.name).normal(0.0, c.adc.noise_counts,
+                                                               counts.shape)
+
+
+def _adc_range(counts, c: _Chain):
+  return np.clip(counts, 0.0, float(c.adc.full_scale))
+
+
+def _ft_noise(wrench, c: _Chain):
+  sd = np.array([0.125, 0.125, 0.25, 0.0075, 0.0075, 0.0075])
+  return wrench + rng_for(c.seed, fx.FT_NOISE.name).normal(0.0, 1.0, wrench.shape) * sd
+
+
+# The chain in the order the hardware applies it: on the die's pressure (the gel's history,
+# the die's drift and spread, the transducer's range), then on the counts (noise, the ADC's
+# range, its conversion), and the plate's own noise on the wrench.
+PRESSURE_STEPS = (Step((fx.HYSTERESIS,), _hysteresis),
+                  Step((fx.THERMAL_DRIFT,), _thermal_drift),
+                  Step((fx.GAIN_OFFSET_SPREAD,), _gain_offset_spread),
+                  Step((fx.ADC_SATURATION,), _sensor_range))
+COUNT_STEPS = (Step((fx.SENSOR_NOISE,), _sensor_noise),
+               Step((fx.ADC_SATURATION,), _adc_range),
+               Step((fx.ADC_QUANTISATION,), lambda counts, c: np.floor(counts)))
+WRENCH_STEPS = (Step((fx.FT_NOISE,), _ft_noise),)

@@ -17,7 +17,8 @@ import numpy as np
 
 from util import errors, fields
 from util.fields import setting
-from sim.effects import check_effects, rng_for, wander
+from sim.effects import Step, active, rng_for, run_steps, wander
+from sim.shell import effects as fx
 from sim.shell.effects import EFFECTS
 
 # u = r / r_c at the maximum of (1 - exp(-u^2)) / u: 2 u^2 exp(-u^2) = 1 - exp(-u^2)
@@ -120,25 +121,50 @@ def apply(height: np.ndarray, effects, seed: int,
   unit_seed draws the `unit_spread` of the physical sensors (default: seed); runs of one
   board (calibration, test) share it while their noise differs.
   """
-  effects = check_effects(effects, EFFECTS)
+  on = active(effects, EFFECTS)
   sensor.validate()
-  counts = sensor.counts(height, near_field="out_of_window" in effects)
-  if "unit_spread" in effects:
-    rng = rng_for(seed if unit_seed is None else unit_seed, "unit_spread")
-    gain = rng.normal(1.0, sensor.gain_spread, counts.shape[1])
-    offset = rng.normal(0.0, sensor.offset_spread, counts.shape[1])
-    counts = (counts - sensor.b) * gain + sensor.b + offset
-  if "stray_ir" in effects:
-    rng = rng_for(seed, "stray_ir")
-    tau = sensor.stray_ir_time * frame_rate
-    n = counts.shape[0]
-    counts = (counts + wander(rng, (n, 1), sensor.stray_ir, tau)
-              + wander(rng, counts.shape, sensor.stray_ir, tau))
-  if {"unit_spread", "stray_ir"} & set(effects):
-    counts = np.clip(counts, 0.0, float(sensor.full_scale))
-  if "sensor_noise" in effects:
-    counts = counts + rng_for(seed, "sensor_noise").normal(0.0, 1.0, counts.shape)
-    counts = np.clip(counts, 0.0, float(sensor.full_scale))
-  if "adc_quantisation" in effects:
-    counts = np.floor(counts)
-  return counts
+  counts = sensor.counts(height, near_field=fx.OUT_OF_WINDOW in on)
+  chain = _Chain(sensor, seed, seed if unit_seed is None else unit_seed, frame_rate)
+  return run_steps(STEPS, counts, on, chain)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Chain:
+  """What the steps of one run read: the sensor, the run's seed, the board's seed (for
+  `unit_spread`) and the frame rate (Hz)."""
+  sensor: Photointerrupter
+  seed: int
+  unit_seed: int
+  frame_rate: float
+
+
+def _unit_spread(counts, c: _Chain):
+  rng = rng_for(c.unit_seed, fx.UNIT_SPREAD.name)
+  gain = rng.normal(1.0, c.sensor.gain_spread, counts.shape[1])
+  offset = rng.normal(0.0, c.sensor.offset_spread, counts.shape[1])
+  return (counts - c.sensor.b) * gain + c.sensor.b + offset
+
+
+def _stray_ir(counts, c: _Chain):
+  rng = rng_for(c.seed, fx.STRAY_IR.name)
+  tau = c.sensor.stray_ir_time * c.frame_rate
+  common = wander(rng, (counts.shape[0], 1), c.sensor.stray_ir, tau)
+  return counts + common + wander(rng, counts.shape, c.sensor.stray_ir, tau)
+
+
+def _adc_range(counts, c: _Chain):
+  return np.clip(counts, 0.0, float(c.sensor.full_scale))
+
+
+def _sensor_noise(counts, c: _Chain):
+  noisy = counts + rng_for(c.seed, fx.SENSOR_NOISE.name).normal(0.0, 1.0, counts.shape)
+  return _adc_range(noisy, c)
+
+
+# The chain in the board's order: the sensors' own spread and the stray light on the
+# detector (clipped once by the ADC's range), then the ADC's noise and its conversion.
+STEPS = (Step((fx.UNIT_SPREAD,), _unit_spread),
+         Step((fx.STRAY_IR,), _stray_ir),
+         Step((fx.UNIT_SPREAD, fx.STRAY_IR), _adc_range),
+         Step((fx.SENSOR_NOISE,), _sensor_noise),
+         Step((fx.ADC_QUANTISATION,), lambda counts, c: np.floor(counts)))

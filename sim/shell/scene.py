@@ -31,6 +31,8 @@ from util.fields import setting
 from sim import physics, recording
 from sim.shell import geometry, photointerrupter
 from sim import effects as effects_lib
+from sim.effects import active
+from sim.shell import effects as fx
 from sim.shell.effects import EFFECTS, EffectName
 
 PAPER_FRAMES = {"calibration": 97526, "test": 42316}  # Sec. III-A
@@ -100,7 +102,7 @@ class ShellScene:
   def spec(self, base: str = "ft", contacts: bool = False) -> mujoco.MjSpec:
     """The scene's rig (`models.shell.build_spec`) with the model effects it lists."""
     return model_lib.build_spec(self.params, base, contacts,
-                                hysteresis="spring_hysteresis" in self.effects)
+                                hysteresis=fx.SPRING_HYSTERESIS in active(self.effects, EFFECTS))
 
 
 def frame_steps(timestep: float) -> int:
@@ -112,7 +114,7 @@ def sense(scene: ShellScene, pose: np.ndarray, seed: int) -> tuple[np.ndarray, n
   """What the board of `scene` reads at 100 Hz frames of mount joints `pose` (F, 6):
   (heights (F, 8), m, NaN for a missed facet under `ray_miss`; counts (F, 8) through the
   sensor chain with the scene's effects, noise drawn from `seed`)."""
-  height = heights_from_pose(scene.params, pose, finite_facets="ray_miss" in scene.effects)
+  height = heights_from_pose(scene.params, pose, finite_facets=fx.RAY_MISS in active(scene.effects, EFFECTS))
   return height, photointerrupter.apply(height, scene.effects, seed, scene.sensor, FRAME_RATE,
                                         scene.unit_seed)
 
@@ -335,7 +337,7 @@ def _shares(scene: ShellScene, pose: np.ndarray, height: np.ndarray) -> tuple[fl
   """(share of frames out of the window, share bottomed) of a run; a missed facet is no
   contact, so bottoming is judged on the unbounded facet planes."""
   inside, bottomed = frame_shares(scene.sensor, height)
-  if "ray_miss" in scene.effects:
+  if fx.RAY_MISS in active(scene.effects, EFFECTS):
     bottomed = frame_shares(scene.sensor, heights_from_pose(scene.params, pose))[1]
   return 1.0 - inside, bottomed
 
