@@ -25,7 +25,7 @@ import numpy as np
 from models import lighting
 
 from util import fields
-from util.fields import setting
+from util.fields import Sourced, setting
 
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
 AXES = ("x", "y", "z")
@@ -111,11 +111,14 @@ class FootpadParams:
   timestep: float = setting(0.001, "[1e-4, 2e-3]", "s")
   cnc_kp: float = setting(2e7, "[1e4, 1e9]", "N/m")
   cnc_mass: float = setting(1.0, "[0.01, 100]", "kg")
-  prony: tuple[float, float, float, float] = setting((0.12, 1.0, 0.09, 30.0),
-                                                     "[0.01, 1000]", length=(4, 4))
-  friction_mu0: float = setting(1.85, "[1.2, 2.5]")
-  friction_shear_strength: float = setting(0.3e6, "[0.15e6, 0.5e6]", "Pa")
-  static_friction_ratio: float = setting(1.15, "[1.0, 2.0]")
+  prony: tuple[float, float, float, float] = setting(
+      (0.12, 1.0, 0.09, 30.0), "[0.01, 1000]", length=(4, 4),
+      sourced=(Sourced(0.05, 0.2, part="g1"), Sourced(0.1, 2.0, log=True, part="tau1"),
+               Sourced(0.03, 0.15, part="g2"), Sourced(10.0, 100.0, log=True, part="tau2")))
+  friction_mu0: float = setting(1.85, "[1.2, 2.5]", sourced=Sourced(1.2, 2.5))
+  friction_shear_strength: float = setting(0.3e6, "[0.15e6, 0.5e6]", "Pa",
+                                           sourced=Sourced(0.15e6, 0.5e6))
+  static_friction_ratio: float = setting(1.15, "[1.0, 2.0]", sourced=Sourced(1.0, 1.3))
   stiffness_profile: Literal["bonded_plate", "uniform"] = "bonded_plate"
 
   @property

@@ -17,17 +17,17 @@ def test_latin_hypercube_puts_one_point_in_each_stratum():
 
 
 def test_designs_stay_inside_the_sourced_ranges_and_log_axes_are_geometric():
-  lo = envelope.design_values(np.zeros(len(envelope.RANGES)))
-  hi = envelope.design_values(np.full(len(envelope.RANGES), 1 - 1e-12))
-  mid = envelope.design_values(np.full(len(envelope.RANGES), 0.5))
-  for name, (a, b, log) in envelope.RANGES.items():
+  lo = envelope.design_values(np.zeros(len(envelope.ranges())))
+  hi = envelope.design_values(np.full(len(envelope.ranges()), 1 - 1e-12))
+  mid = envelope.design_values(np.full(len(envelope.ranges()), 0.5))
+  for name, (a, b, log) in envelope.ranges().items():
     assert lo[name] == pytest.approx(a) and hi[name] == pytest.approx(b)
     assert mid[name] == pytest.approx(np.sqrt(a * b) if log else (a + b) / 2)
 
 
 def test_a_design_scene_carries_its_values_and_every_envelope_effect():
   base = protocol.base(True, 0)
-  values = envelope.design_values(np.full(len(envelope.RANGES), 0.25))
+  values = envelope.design_values(np.full(len(envelope.ranges()), 0.25))
   scene = envelope.design_scene(base, values)
   scene.validate()
   assert scene.params.friction_mu0 == values["params.friction_mu0"]
@@ -41,12 +41,12 @@ def test_a_design_scene_carries_its_values_and_every_envelope_effect():
 
 def test_sensitivity_recovers_the_shares_of_a_known_linear_response():
   rng = np.random.default_rng(1)
-  d = len(envelope.RANGES)
+  d = len(envelope.ranges())
   units = envelope.latin_hypercube(400, d, rng)
   weights = np.zeros(d)
   weights[0], weights[6] = 2.0, 1.0  # variance shares 4:1 (equal input spreads)
   shares, r2 = envelope.sensitivity(units, units @ weights)
-  names = list(envelope.RANGES)
+  names = list(envelope.ranges())
   assert shares[names[0]] == pytest.approx(0.8, abs=0.01)
   assert shares[names[6]] == pytest.approx(0.2, abs=0.01)
   assert r2 == pytest.approx(1.0)
@@ -109,7 +109,7 @@ def corners():
   base = protocol.base(True, 0)
   out = []
   for level in (0.0, 1.0 - 1e-12):
-    u = np.array([level if name in HISTORY else 0.5 for name in envelope.RANGES])
+    u = np.array([level if name in HISTORY else 0.5 for name in envelope.ranges()])
     out.append(envelope.evaluate({"base": scene_lib.FootpadScene.config(base),
                                   "values": envelope.design_values(u), "seeds": [1]}))
   return out
@@ -139,3 +139,21 @@ def test_a_quarter_turn_swaps_the_layouts_axes_and_twice_is_none():
       sorted(map(tuple, p.die_positions().tolist()))
   assert t.quarter_turned() == p
   t.validate()
+
+
+def test_every_sourced_range_lies_in_its_allowed_interval_around_its_default():
+  """The ranges the envelope sweeps are the parameters' own (`fields.Sourced`)."""
+  from models.footpad import FootpadParams
+  from sim.footpad.sensor_chain import AdcConfig
+  from util import fields
+  defaults = {"params": FootpadParams(), "adc": AdcConfig()}
+  for prefix, name in envelope.SWEPT:
+    cls = type(defaults[prefix])
+    meta = next(f.metadata for f in dataclasses.fields(cls) if f.name == name)
+    value = getattr(defaults[prefix], name)
+    ranges = list(fields.sourced(cls, name).values())
+    values = value if isinstance(value, tuple) else (value,)
+    assert len(ranges) == len(values), name
+    for r, v in zip(ranges, values):
+      assert r.lo in meta["interval"] and r.hi in meta["interval"], (name, r)
+      assert r.lo <= v <= r.hi, (name, r, v)

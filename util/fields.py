@@ -59,12 +59,44 @@ class Interval:
     return self.text
 
 
+@dataclasses.dataclass(frozen=True)
+class Sourced:
+  """The range a parameter's sources leave it in (narrower than what it allows): where a
+  magnitude is known only that far, a sweep simulates the whole range. The sources are in
+  the field's docstring entry.
+
+  Attributes:
+    lo, hi: the range's ends.
+    log: drawn uniformly in log (a time constant spanning decades).
+    part: for one item of a tuple field, the item's name ("g1" of a Prony series).
+  """
+  lo: float
+  hi: float
+  log: bool = False
+  part: str = ""
+
+
 def setting(default: Any, interval: str, unit: str = "", *,
-            length: Optional[tuple[int, int]] = None) -> Any:
+            length: Optional[tuple[int, int]] = None,
+            sourced: Optional[Sourced | tuple[Sourced, ...]] = None) -> Any:
   """A dataclass field with its allowed interval and unit (and, for a variable-length tuple,
-  its allowed number of items, inclusive)."""
+  its allowed number of items, inclusive; for a magnitude known only within a range, that
+  range: one `Sourced`, or one per item of a tuple)."""
   return dataclasses.field(default=default, metadata={
-      "interval": Interval.parse(interval), "unit": unit, "length": length})
+      "interval": Interval.parse(interval), "unit": unit, "length": length,
+      "sourced": sourced})
+
+
+def sourced(cls: type, name: str) -> dict[str, Sourced]:
+  """{key: range} of the field `name` of the dataclass `cls`: `name` for a number, and
+  "name.part" for each item of a tuple ("prony.g1")."""
+  meta = next(f.metadata for f in dataclasses.fields(cls) if f.name == name)
+  ranges = meta.get("sourced")
+  if ranges is None:
+    raise KeyError(f"{cls.__name__}.{name} declares no sourced range")
+  if isinstance(ranges, Sourced):
+    return {name: ranges}
+  return {f"{name}.{r.part}": r for r in ranges}
 
 
 @functools.cache

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 
 import numpy as np
 
@@ -34,20 +35,27 @@ from benchmarks.registry import register
 from util import fields
 from util.fields import setting
 
-# name: (low, high, drawn on a log scale), each with the source of its range in the
-# docstrings of FootpadParams and AdcConfig and in docs/physics.md
-RANGES = {
-    "params.friction_mu0": (1.2, 2.5, False),
-    "params.friction_shear_strength": (0.15e6, 0.5e6, False),
-    "params.static_friction_ratio": (1.0, 1.3, False),
-    "prony.g1": (0.05, 0.2, False),
-    "prony.tau1": (0.1, 2.0, True),
-    "prony.g2": (0.03, 0.15, False),
-    "prony.tau2": (10.0, 100.0, True),
-    "adc.hysteresis": (0.0, 0.012, False),
-    "adc.drift_offset": (0.0, 0.015, False),
-    "adc.drift_gain": (0.0, 0.015, False),
-}
+# The settings the envelope sweeps, in the order of the design columns; their ranges are
+# declared with the parameters (`fields.Sourced`), their sources in the parameters' docstrings.
+SWEPT = (("params", "friction_mu0"), ("params", "friction_shear_strength"),
+         ("params", "static_friction_ratio"), ("params", "prony"), ("adc", "hysteresis"),
+         ("adc", "drift_offset"), ("adc", "drift_gain"))
+
+
+@functools.cache
+def ranges() -> dict[str, tuple[float, float, bool]]:
+  """{key: (low, high, drawn on a log scale)} of every swept setting (a Prony series' items
+  as "prony.g1" ...), read from the parameters' declared sourced ranges."""
+  from models.footpad import FootpadParams
+  from sim.footpad.sensor_chain import AdcConfig
+  owner = {"params": FootpadParams, "adc": AdcConfig}
+  out = {}
+  for prefix, name in SWEPT:
+    for key, r in fields.sourced(owner[prefix], name).items():
+      out[key if r.part else f"{prefix}.{key}"] = (r.lo, r.hi, r.log)
+  return out
+
+
 ENVELOPE_EFFECTS = ("pressure_friction", "stick_slip", "viscoelastic", "hysteresis", "thermal_drift")
 SHEAR_R2 = "mean shear R2 % of the networks (X and Y; LSANN and NN-only)"
 LS_STROKES = "LS stroke NRMSE % (X and Y, fitted on the Z presses and X/Y strokes)"
@@ -88,7 +96,7 @@ def latin_hypercube(n: int, d: int, rng: np.random.Generator) -> np.ndarray:
 def design_values(unit: np.ndarray) -> dict[str, float]:
   """The parameter values of one design from its point (d,) in the unit hypercube."""
   out = {}
-  for u, (name, (lo, hi, log)) in zip(unit, RANGES.items()):
+  for u, (name, (lo, hi, log)) in zip(unit, ranges().items()):
     out[name] = float(np.exp(np.log(lo) + u * np.log(hi / lo)) if log else lo + u * (hi - lo))
   return out
 
@@ -151,7 +159,7 @@ def sensitivity(units: np.ndarray, target: np.ndarray) -> tuple[dict[str, float]
   coef = np.linalg.lstsq(a, y, rcond=None)[0][:-1]
   r2 = 1 - np.sum((a @ np.append(coef, 0) - y) ** 2) / np.sum(y ** 2)
   share = coef ** 2 / np.sum(coef ** 2)
-  return dict(zip(RANGES, share.tolist())), float(r2)
+  return dict(zip(ranges(), share.tolist())), float(r2)
 
 
 @register("footpad_envelope", "footpad: the paper's Table I against the envelope of the "
@@ -167,14 +175,14 @@ def run(ctx) -> dict:
   if s.layout is Layout.TURNED:
     base = dataclasses.replace(base, params=base.params.quarter_turned())
   rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
-  units = latin_hypercube(s.designs, len(RANGES), rng)
+  units = latin_hypercube(s.designs, len(ranges()), rng)
   seeds = [int(x.generate_state(1)[0])
            for x in np.random.SeedSequence(ctx.seed, spawn_key=(12,)).spawn(s.network_seeds)]
   points = [{"base": scene_lib.FootpadScene.config(base), "values": design_values(u),
              "seeds": seeds} for u in units]
   layout = ("turned a quarter (three rows along X)" if s.layout is Layout.TURNED
             else "as assumed (three rows along Y)")
-  ctx.print(f"{s.designs} designs over {len(RANGES)} sourced ranges, die array {layout}, "
+  ctx.print(f"{s.designs} designs over {len(ranges())} sourced ranges, die array {layout}, "
             f"{'3' if ctx.quick else '16'} Z levels, {s.network_seeds} network seed(s) each; "
             f"executor {ctx.executor.kind}")
   results, failures, seconds = executors.run_designs(ctx, evaluate, points,
@@ -238,23 +246,23 @@ def run(ctx) -> dict:
                             for r in rows])}
   sensitivities = {}
   for name, target in targets.items():
-    if len(rows) <= len(RANGES) + 1:
-      ctx.print(f"\nsensitivity: needs more than {len(RANGES) + 1} finished designs "
+    if len(rows) <= len(ranges()) + 1:
+      ctx.print(f"\nsensitivity: needs more than {len(ranges()) + 1} finished designs "
                 f"(--set designs=N); {len(rows)} finished")
       break
     shares, fit_r2 = sensitivity(units[done], target)
-    dof = len(rows) - len(RANGES) - 1
+    dof = len(rows) - len(ranges()) - 1
     sensitivities[name] = {"shares": shares, "linear_fit_r2": fit_r2, "residual_dof": dof}
     ctx.print(f"\nsensitivity of the {name} (range {target.min():.2f}-{target.max():.2f} "
               f"over the designs): share of its variance per parameter (a linear fit over "
               f"the designs explains {fit_r2:.0%}, {dof} residual degree(s) of freedom" +
               ("; too few designs for the shares to be more than indicative: --set "
-               f"designs={len(RANGES) + 12} or more)" if dof < 10 else ")"))
+               f"designs={len(ranges()) + 12} or more)" if dof < 10 else ")"))
     for param, share in sorted(shares.items(), key=lambda kv: -kv[1]):
       ctx.print(f"  {param:32s} {share:6.1%}")
   ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
             f"on {ctx.executor.kind}")
-  data = {"ranges": {k: list(v) for k, v in RANGES.items()}, "designs": [
+  data = {"ranges": {k: list(v) for k, v in ranges().items()}, "designs": [
               {"values": points[k]["values"], **results[k]} for k in done],
           "envelope": table_rows, "x_better_than_y": x_better, "stroke_fit_split": split,
           "sensitivity": sensitivities,

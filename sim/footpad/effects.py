@@ -15,15 +15,15 @@ PRESSURE_FRICTION = Effect("pressure_friction", Kind.MODEL,
     "Rubber's friction falls with contact pressure (Thirion's law, tau = mu0 p / (1 + "
     "mu0 p / tau_s); Schallamach 1952, Braun & Persson 2016): each element's "
     "coefficient follows its pressure under the press to the episode's depth, in "
-    "place of the one Coulomb coefficient (FootpadParams.friction_mu0 1.2-2.5, "
-    "friction_shear_strength; their sourced ranges are with the parameters). Needs "
+    "place of the one Coulomb coefficient (FootpadParams.friction_mu0 and "
+    "friction_shear_strength, whose sourced ranges are declared with them). Needs "
     "`friction`.",
     reads=("params.friction_mu0", "params.friction_shear_strength"),
     replaces=("params.friction",), needs=("friction",))
 STICK_SLIP = Effect("stick_slip", Kind.MODEL,
     "Static friction above kinetic: a stuck element holds up to "
-    "FootpadParams.static_friction_ratio times its coefficient (default 1.15, range "
-    "1.0-1.3, low confidence), breaks away there and slides at the kinetic coefficient "
+    "FootpadParams.static_friction_ratio times its coefficient (its sourced range is "
+    "declared with it), breaks away there and slides at the kinetic coefficient "
     "until it stops or turns over the plate, then sticks again (a Karnopp-style state "
     "per element, updated every step). A history effect: after a reversal every "
     "element must build its shear past the static limit again. Needs `friction`; "
@@ -31,16 +31,12 @@ STICK_SLIP = Effect("stick_slip", Kind.MODEL,
     reads=("params.static_friction_ratio",), needs=("friction",))
 VISCOELASTIC = Effect("viscoelastic", Kind.MODEL,
     "Stress relaxation of the polyurethane as a two-term Prony series per element and "
-    "axis (FootpadParams.prony: fast g1 0.05-0.2 at tau1 0.1-2 s, slow g2 0.03-0.15 at "
-    "tau2 10-100 s; defaults 0.12 at 1 s and 0.09 at 30 s; low confidence: soft cast "
-    "polyurethanes, no Prony data for Vytaflex 20). Rubber relaxes in shear (its bulk "
+    "axis (FootpadParams.prony, a fast and a slow term; their sourced ranges, low "
+    "confidence, are declared with it). Rubber relaxes in shear (its bulk "
     "response is nearly elastic), so the shear springs relax alike, and the bonded "
     "layer's normal stiffness, which its shear modulus sets, too. With one material, "
     "imposed displacement and stuck contact every die and the plate relax with one "
-    "kernel and the map stays linear: relaxation costs a calibration only with slip. "
-    "Measured (asterisk_path --quick, effects friction alone and with viscoelastic, LS "
-    "test NRMSE Y/X): nothing sliding (friction 5) 0.03/0.03 % either way; sliding "
-    "(friction 0.9) 1.17/1.06 % without relaxation, 1.64/1.84 % with it.",
+    "kernel and the map stays linear: relaxation costs a calibration only with slip.",
     reads=("params.prony",))
 P_DELTA = Effect("p_delta", Kind.STRESS,
     "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "
@@ -58,15 +54,15 @@ P_DELTA = Effect("p_delta", Kind.STRESS,
 HYSTERESIS = Effect("hysteresis", Kind.SIGNAL,
     "Rate-independent hysteresis of each die (silicone gel, cast rubber and the "
     "transducer's own): a play operator on its pressure, loop width "
-    "AdcConfig.hysteresis of the 380 kPa span (default 0.6 %, range 0-1.2 %: the LSANN "
-    "paper's linear Z fit, 0.42 % NRMSE, bounds it). A history effect: one reading "
+    "AdcConfig.hysteresis of the 380 kPa span (its range, bounded by the LSANN paper's "
+    "linear Z fit, is declared with it). A history effect: one reading "
     "depends on the path the load took to it, which no static calibration can learn.",
     reads=("adc.hysteresis",))
 THERMAL_DRIFT = Effect("thermal_drift", Kind.SIGNAL,
     "Slow drift of each die's offset and gain over a session (warm-up, the pad "
     "warming under load): Ornstein-Uhlenbeck processes with rms AdcConfig.drift_offset "
-    "of span and drift_gain, correlation time drift_time (defaults 0.5 %, 0.5 %, "
-    "300 s: the MPXH6400A's +-1.5 % band over 0-85 C taken as 3 sd; range 0-1.5 %).",
+    "of span and drift_gain, correlation time drift_time (sizes and sources declared "
+    "with them: the MPXH6400A's +-1.5 % band over 0-85 C).",
     reads=("adc.drift_offset", "adc.drift_gain", "adc.drift_time"))
 SENSOR_NOISE = Effect("sensor_noise", Kind.SIGNAL,
     "White noise of the pressure sensor and ADC, in counts rms (default 1.5). Assumed: "

@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 
 from util import fields
-from util.fields import setting
+from util.fields import Sourced, setting
 from sim.effects import Step, active, play, rng_for, run_steps, wander
 from sim.footpad import effects as fx
 from sim.footpad.effects import EFFECTS
@@ -56,9 +56,9 @@ class AdcConfig:
   noise_counts: float = setting(1.5, "[0, 1000]", "counts")
   gain_spread: float = setting(0.10, "[0, 1]")
   offset_spread: float = setting(3e3, "[0, 1e5]", "Pa")
-  hysteresis: float = setting(0.006, "[0, 0.012]")
-  drift_offset: float = setting(0.005, "[0, 0.015]")
-  drift_gain: float = setting(0.005, "[0, 0.015]")
+  hysteresis: float = setting(0.006, "[0, 0.012]", sourced=Sourced(0.0, 0.012))
+  drift_offset: float = setting(0.005, "[0, 0.015]", sourced=Sourced(0.0, 0.015))
+  drift_gain: float = setting(0.005, "[0, 0.015]", sourced=Sourced(0.0, 0.015))
   drift_time: float = setting(300.0, "[1, 1e5]", "s")
 
   @property
