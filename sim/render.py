@@ -10,7 +10,8 @@ settles on its springs over the reflectors for T seconds, each photointerrupter'
 in red from its sensor to the facet it reads. MuJoCo renders through EGL (GPU or
 Mesa) or OSMesa: set MUJOCO_GL=egl or MUJOCO_GL=osmesa; on Debian/Ubuntu the libraries are the
 packages libegl1 (with libgl1-mesa-dri) or libosmesa6. `render` picks EGL, then OSMesa, when
-MUJOCO_GL is not set.
+MUJOCO_GL is not set, provided it runs before MuJoCo is first imported (the command does; in
+your own script call `sim.render.choose_backend()` first, or set MUJOCO_GL).
 """
 
 from __future__ import annotations
@@ -39,20 +40,20 @@ class View:
   elevation: float
 
 
-def choose_backend() -> None:
-  """Chooses an offscreen GL backend (EGL if its library is found, else OSMesa if found)
-  unless MUJOCO_GL says; MuJoCo reads it when first imported, so this runs on importing this
-  module, which imports MuJoCo only inside its functions."""
+def choose_backend() -> Optional[str]:
+  """Sets MUJOCO_GL to an offscreen backend (EGL if its library is found, else OSMesa) unless
+  it is set; returns the backend (None: neither found, and `frames` says what to install).
+  MuJoCo reads MUJOCO_GL when first imported, so call this before that: the command and
+  the functions here call it before they import MuJoCo (this module imports it only inside
+  them), and importing this module changes nothing."""
   if os.environ.get("MUJOCO_GL"):
-    return
+    return os.environ["MUJOCO_GL"]
   import ctypes.util
   for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
     if ctypes.util.find_library(library):
       os.environ["MUJOCO_GL"] = backend
-      return  # neither found: MuJoCo's default, and `frames` says what to install
-
-
-choose_backend()
+      return backend
+  return None
 
 
 def footpad_run(path: str = "x_stroke", z: float = 1e-3):
@@ -134,6 +135,7 @@ def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
   """(time, image, renderer scene) at each of `times` (s, increasing): RGB (H, W, 3) uint8,
   or with `segmentation` (H, W, 2) int32 of object id and type per pixel. `run` is a
   `rig_run` not yet stepped past times[0] (built here when None)."""
+  choose_backend()
   import mujoco
   model, step_to, _, view = run or rig_run(rig, path, z)
   width, height = size
@@ -146,7 +148,7 @@ def frames(rig: str, times: list[float], size: tuple[int, int] = (640, 480), *,
     raise errors.SimulationError(
         f"render: MuJoCo could not open an offscreen context with MUJOCO_GL="
         f"{os.environ.get('MUJOCO_GL')} ({err}); set MUJOCO_GL=egl (or osmesa) before Python "
-        f"starts, or import sim.render before mujoco, and install libegl1 and "
+        f"starts, or call sim.render.choose_backend() before importing mujoco, and install libegl1 and "
         f"libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa)") from None
   cam = mujoco.MjvCamera()
   cam.type = mujoco.mjtCamera.mjCAMERA_FREE
@@ -223,6 +225,7 @@ def main(argv: Optional[list[str]] = None) -> int:
   parser.add_argument("--z", type=float, default=1.0, help="footpad: depth, mm (default 1)")
   parser.add_argument("--size", default="640x480", help="image size WxH, px (640x480)")
   args = parser.parse_args(argv)
+  choose_backend()
   return cli.run(lambda: _render(args), "sim.render")
 
 

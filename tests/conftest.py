@@ -9,7 +9,9 @@ import pytest
 # Keep test recordings out of the user's cache; finite-element kernels are shared.
 os.environ.setdefault("TESTBENCH_CACHE", str(pathlib.Path.home() / ".cache" / "footpad-testbench-tests"))
 # Offscreen rendering: MuJoCo picks its GL backend on first import, so choose it first.
-from sim import render  # noqa: E402,F401  (sets MUJOCO_GL)
+from sim import render  # noqa: E402
+
+render.choose_backend()
 
 
 @pytest.fixture(scope="session")

@@ -67,3 +67,15 @@ def test_the_shell_shows_each_photointerrupters_beam():
   assert all(1.5e-3 < g.size[2] < 4.5e-3 for g in beams), [g.size[2] for g in beams]
   red = (image[..., 0] > 150) & (image[..., 1] < 80) & (image[..., 2] < 80)
   assert red.sum() > 50
+
+
+def test_importing_render_leaves_the_environment_alone():
+  """The GL backend is chosen by the command or by `choose_backend()`, never by an import."""
+  import subprocess
+  import sys
+  code = ("import os; os.environ.pop('MUJOCO_GL', None); import sim.render; "
+          "print(os.environ.get('MUJOCO_GL'))")
+  env = {k: v for k, v in __import__("os").environ.items() if k != "MUJOCO_GL"}
+  out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       check=True).stdout.strip()
+  assert out == "None"
