@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Optional
 
 import numpy as np
 
@@ -140,13 +141,23 @@ def _heatmap(ctx, axes: dict, fom: np.ndarray, board_design: dict) -> None:
                ctx.out, "slope_sweep")
 
 
+PER_AXIS = ("median_pct", "worst_pct", "resolution", "window_range")
+
+
+def _axis_rows(group: str, r: dict) -> list:
+  """metrics.csv rows of one design's per-axis lists (the cubic calibration's errors and the
+  count map's resolution and in-window range), each naming its axis."""
+  from calibrate import metrics
+  from sim.shell.paper import AXES
+  return metrics.scored(group, {"cubic": {ax: {k: r[k][i] for k in PER_AXIS}
+                                          for i, ax in enumerate(AXES)}})
+
+
 @register("reflector_slope_sweep", "shell design grid over reflector slopes (and any ShellParams "
           "number): rank, resolution, window, calibrated error; best design, gradient search",
           settings=sweep_settings, fixed=FIXED, tags=("shell", "design", "sweep"))
-def run(ctx) -> dict:
-  from benchmarks import executors
-  from calibrate import metrics
-  from sim.shell import design, geometry
+def run(ctx):
+  from benchmarks import executors, outputs
   settings = ctx.settings
   axes = settings.axes()
   designs = settings.designs()
@@ -157,16 +168,38 @@ def run(ctx) -> dict:
             f"executor {ctx.executor.kind}")
   results, failures, grid_seconds = executors.run_designs(ctx, evaluate, points,
                                                           lambda p: p["design"])
-  rows = [dict(r, design=p["design"]) for r, p in zip(results, points) if r is not None]
-  if not rows or results[-1] is None:
+  if results[-1] is None or not any(results[:-1]):
     raise RuntimeError("the sweep produced no results: see the failures above")
-  board_row = rows[-1] if results[-1] is not None else None
-  grid_rows = rows[:-1]
+  board_row = dict(results[-1], design=board_design)
+  grid_rows = [dict(r, design=p["design"]) for r, p in zip(results[:-1], points) if r]
   order = sorted(range(len(grid_rows)), key=lambda k: (grid_rows[k]["fom"],
                                                        grid_rows[k]["objective"]))
   place = 1 + sum(r["fom"] < board_row["fom"] for r in grid_rows)
+  best = grid_rows[order[0]]
+  _print_table(ctx, list(axes), [grid_rows[k] for k in order], board_row, place)
+  confirmed, refused, spearman = _confirm(ctx, [grid_rows[k] for k in order])
+  search = _search_against_grid(ctx, axes, grid_rows, best["design"]) if settings.search \
+      else {"skipped": "search off"}
+  _save_grid(ctx, axes, results[:-1], board_design)
+  speed = _speed(ctx, len(points), grid_seconds)
+  data = {"axes": {n: list(v) for n, v in axes.items()},
+          "table": [grid_rows[k] for k in order], "board": board_row,
+          "board_place": place, "best": best,
+          "figure_of_merit": "mean over axes of calibrated median % error, static path",
+          "confirmed": confirmed, "refused_by_full_scene": refused,
+          "spearman_static_vs_full": spearman, "search": search,
+          "failures": [dataclasses.asdict(f) for f in failures], "speed": speed}
+  rows = [r for i, g in enumerate(data["table"]) for r in _axis_rows(
+      f"design {i + 1} " + ", ".join(f"{n}={v:g}" for n, v in g["design"].items()), g)]
+  rows += _axis_rows("board", board_row) + _axis_rows("best", best)
+  skip = tuple(path + (k,) for path in (("table", "*"), ("board",), ("best",))
+               for k in PER_AXIS)
+  return outputs.Result(data, tuple(rows + outputs.plain(data, skip=skip)))
 
-  names = list(axes)
+
+def _print_table(ctx, names: list[str], ranked: list[dict], board: dict, place: int) -> None:
+  """The best `SHOWN` designs and the board's, then why the best one wins."""
+  from sim.shell import design
   ctx.print(f"\n{'':3s} " + " ".join(f"{n:>9s}" for n in names) +
             f" {'rank':>4s} {'cond':>6s} {'res Fx':>6s} {'Fz mN':>6s} {'My uNm':>6s}"
             f" {'box in':>6s} {'PCB':>5s} {'obj':>6s} {'median %':>8s} {'worst %':>7s}")
@@ -178,31 +211,38 @@ def run(ctx) -> dict:
             f"{_fmt(res[2], 1e3)} {_fmt(res[4], 1e6, 6, 1)} {r['box_inside']:6.1%} "
             f"{r['box_bottomed']:5.1%} {_fmt(r['objective'], 1, 6, 3)} {_fmt(r['fom'], 1, 8)} "
             f"{_fmt(float(np.mean(r['worst_pct'])), 1, 7)}")
-  for k in order[:SHOWN]:
-    ctx.print(line(str(order.index(k) + 1), grid_rows[k]))
-  ctx.print(line("brd", board_row) + f"   <- the board's design: {place} of {len(grid_rows)}")
-  best = grid_rows[order[0]]
+  for i, r in enumerate(ranked[:SHOWN]):
+    ctx.print(line(str(i + 1), r))
+  ctx.print(line("brd", board) + f"   <- the board's design: {place} of {len(ranked)}")
+  best = ranked[0]
   ctx.print(f"\nfigure of merit: mean over the six axes of the calibrated median % error "
             f"(static path); best {best['design']}: {best['fom']:.2f} % against the board's "
-            f"{board_row['fom']:.2f} %")
-  why = [f"rank 6, condition {best['condition']:.1f} (board {board_row['condition']:.1f})",
-         "resolution Fx/Fy/Fz " + "/".join(f"{v * 1e3:.2f}" for v in best["resolution"][:3]) +
-         " mN (board " + "/".join(f"{v * 1e3:.2f}" for v in board_row["resolution"][:3]) + ")",
-         "in-window range Fx/Fy " + "/".join(f"{v:.2f}" for v in best["window_range"][:2]) +
-         " N (board " + "/".join(f"{v:.2f}" for v in board_row["window_range"][:2]) +
-         f"; paper's half ranges {design.PAPER_RANGE[0] / 2:.2f}/{design.PAPER_RANGE[1] / 2:.2f})",
+            f"{board['fom']:.2f} %")
+
+  def pair(key, scale, count, fmt):
+    return ("/".join(f"{v * scale:{fmt}}" for v in best[key][:count]) + " (board " +
+            "/".join(f"{v * scale:{fmt}}" for v in board[key][:count]) + ")")
+  why = [f"rank 6, condition {best['condition']:.1f} (board {board['condition']:.1f})",
+         "resolution Fx/Fy/Fz " + pair("resolution", 1e3, 3, ".2f").replace(" (", " mN (", 1),
+         "in-window range Fx/Fy " + pair("window_range", 1, 2, ".2f").replace(" (", " N (", 1)
+         + f"; paper's half ranges {design.PAPER_RANGE[0] / 2:.2f}/"
+           f"{design.PAPER_RANGE[1] / 2:.2f}",
          "median % per axis " + " ".join(f"{v:.1f}" for v in best["median_pct"]) + " (board " +
-         " ".join(f"{v:.1f}" for v in board_row["median_pct"]) + ")"]
+         " ".join(f"{v:.1f}" for v in board["median_pct"]) + ")"]
   ctx.print("why it wins: " + "; ".join(why))
 
-  # the full MuJoCo scene for the best three and designs spread over the rest of the table:
-  # does it rank them alike?
-  seen = [k for k in order if np.isfinite(grid_rows[k]["fom"])]
+
+def _confirm(ctx, ranked: list[dict]) -> tuple[list, list, Optional[float]]:
+  """The full MuJoCo scene for the best three and designs spread over the rest of the table:
+  does it rank them alike? (confirmed, refused, Spearman's rank correlation or None)."""
+  from calibrate import metrics
+  from sim.shell import geometry
+  settings = ctx.settings
+  seen = [r for r in ranked if np.isfinite(r["fom"])]
   picks = sorted(set(list(range(min(3, settings.confirm, len(seen)))) + np.round(np.linspace(
       0, len(seen) - 1, max(settings.confirm - 3, 0))).astype(int).tolist()))
-  confirm = [grid_rows[seen[i]] for i in picks]
   confirmed, refused = [], []
-  for r in confirm:
+  for r in (seen[i] for i in picks):
     board = dataclasses.replace(settings.board, params=dataclasses.replace(
         settings.board.params, **r["design"]))
     try:
@@ -211,8 +251,7 @@ def run(ctx) -> dict:
       refused.append({"design": r["design"], "static_fom": r["fom"], "refused": str(err)})
       continue
     test = fit.runs["test"]
-    pred = fit.estimator.predict(test.counts)
-    median = metrics.wrench_median_pct(pred, test.wrench)
+    median = metrics.wrench_median_pct(fit.estimator.predict(test.counts), test.wrench)
     rays = geometry.ray_jacobian(board.params)
     closed = geometry.height_jacobian(board.params)
     confirmed.append({"design": r["design"], "static_fom": r["fom"],
@@ -236,53 +275,61 @@ def run(ctx) -> dict:
   for c in refused:
     ctx.print(f"  {c['design']}: static {c['static_fom']:.2f} %, the full scene refused it: "
               f"{c['refused']}")
+  return confirmed, refused, spearman
 
-  search = _search(ctx, axes, best["design"]) if settings.search else {"skipped": "search off"}
-  if "found" in search:
-    objs = np.array([r["objective"] for r in grid_rows])
-    grid_best = grid_rows[int(np.argmin(objs))]["design"]
-    # distance in cells: the found value's fractional index along each (sorted) axis
-    cells = {n: abs(float(np.interp(search["found"][i], sorted(axes[n]), range(len(axes[n]))))
-                    - sorted(axes[n]).index(grid_best[n]))
-             for i, n in enumerate(search["axes"])}
-    search.update(grid_best=grid_best, grid_best_objective=float(objs.min()),
-                  cells_from_grid_best=cells)
-    ctx.print(f"\ngradient search (L-BFGS-B, JAX) from {search['start']}: "
-              f"{dict(zip(search['axes'], np.round(search['found'], 4).tolist()))} objective "
-              f"{search['objective']:.4f} in {search['iterations']} iterations "
-              f"({search['seconds']:.2f} s); the grid's best by the same objective "
-              f"{grid_best}: {objs.min():.4f}; distance in grid cells "
-              + ", ".join(f"{n} {v:.2f}" for n, v in cells.items()))
 
-  # heat-map data and speed
+def _search_against_grid(ctx, axes: dict, grid_rows: list[dict], start: dict) -> dict:
+  """The gradient search from `start`, and how far (in grid cells) it lands from the grid's
+  best design by the same objective."""
+  search = _search(ctx, axes, start)
+  if "found" not in search:
+    return search
+  objs = np.array([r["objective"] for r in grid_rows])
+  grid_best = grid_rows[int(np.argmin(objs))]["design"]
+  # distance in cells: the found value's fractional index along each (sorted) axis
+  cells = {n: abs(float(np.interp(search["found"][i], sorted(axes[n]), range(len(axes[n]))))
+                  - sorted(axes[n]).index(grid_best[n]))
+           for i, n in enumerate(search["axes"])}
+  search.update(grid_best=grid_best, grid_best_objective=float(objs.min()),
+                cells_from_grid_best=cells)
+  ctx.print(f"\ngradient search (L-BFGS-B, JAX) from {search['start']}: "
+            f"{dict(zip(search['axes'], np.round(search['found'], 4).tolist()))} objective "
+            f"{search['objective']:.4f} in {search['iterations']} iterations "
+            f"({search['seconds']:.2f} s); the grid's best by the same objective "
+            f"{grid_best}: {objs.min():.4f}; distance in grid cells "
+            + ", ".join(f"{n} {v:.2f}" for n, v in cells.items()))
+  return search
+
+
+def _save_grid(ctx, axes: dict, results: list, board_design: dict) -> None:
+  """DIR/sweep.npz (every grid quantity shaped like the grid, NaN where a design failed) and
+  the heat map."""
   shape = tuple(len(v) for v in axes.values())
   ctx.out.mkdir(parents=True, exist_ok=True)
-  grid = {key: np.array([r[key] if r else np.nan for r in results[:-1]], float).reshape(shape)
+  grid = {key: np.array([r[key] if r else np.nan for r in results], float).reshape(shape)
           for key in ("fom", "objective", "condition", "box_inside", "box_bottomed")}
-  res = np.array([r["resolution"] if r else [np.nan] * 6 for r in results[:-1]]).reshape(
+  res = np.array([r["resolution"] if r else [np.nan] * 6 for r in results]).reshape(
       shape + (6,))
-  rank = np.array([r["rank"] if r else -1 for r in results[:-1]]).reshape(shape)
+  rank = np.array([r["rank"] if r else -1 for r in results]).reshape(shape)
   files.atomic_write(ctx.out / "sweep.npz", lambda f: np.savez(
       f, **{f"axis_{n}": np.array(v) for n, v in axes.items()}, **grid, resolution=res,
       rank=rank))
   _heatmap(ctx, axes, grid["fom"], board_design)
+
+
+def _speed(ctx, designs: int, grid_seconds: float) -> dict:
+  """The grid's wall time and the closed-form heights' rate (frames/s, best of three)."""
+  from sim.shell import geometry
   frames = 200_000
   poses = np.random.default_rng(ctx.seed).uniform(-1e-3, 1e-3, (frames, 6))
   times = []
   for _ in range(3):  # the best of three: the first pays for the arrays' pages
     t = time.perf_counter()
-    geometry.pose_heights(settings.board.params, poses)
+    geometry.pose_heights(ctx.settings.board.params, poses)
     times.append(time.perf_counter() - t)
   rate = frames / min(times)
-  ctx.print(f"\n{len(points)} designs in {grid_seconds:.1f} s on {ctx.executor.kind} "
+  ctx.print(f"\n{designs} designs in {grid_seconds:.1f} s on {ctx.executor.kind} "
             f"({ctx.executor.count() if ctx.executor.kind != 'serial' else 1} workers); "
             f"closed-form heights {rate:,.0f} frames/s; heat-map data {ctx.out / 'sweep.npz'}")
-  return {"axes": {n: list(v) for n, v in axes.items()},
-          "table": [grid_rows[k] for k in order], "board": board_row,
-          "board_place": place, "best": best,
-          "figure_of_merit": "mean over axes of calibrated median % error, static path",
-          "confirmed": confirmed, "refused_by_full_scene": refused,
-          "spearman_static_vs_full": spearman, "search": search,
-          "failures": [dataclasses.asdict(f) for f in failures],
-          "speed": {"grid_seconds": grid_seconds, "designs": len(points),
-                    "executor": ctx.executor.kind, "closed_form_frames_per_s": rate}}
+  return {"grid_seconds": grid_seconds, "designs": designs, "executor": ctx.executor.kind,
+          "closed_form_frames_per_s": rate}
