@@ -12,6 +12,7 @@ reported separately. The whole race runs with JAX's 64-bit types on.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -100,18 +101,62 @@ def _race(name, run, val_mse, target, cap_s):
 
 @register("lm_solvers", "LM for the footpad network: own vs jaxopt, scipy, mujoco.minimize, optimistix",
           settings=footpad.protocol_settings, fixed=footpad.FIXED, tags=("footpad", "speed"))
-def run(ctx) -> dict:
+def run(ctx):
   import jax
+  from benchmarks import outputs
+  from calibrate import metrics
   with jax.enable_x64(True):  # the race runs the network's building blocks in float64
-    return _run(ctx)
+    scene, p = _problem(ctx)
+    results, own, target = _own_solvers(ctx, p)
+    results += _reference_solvers(ctx, p, target)
+    jtj_s = _dense_jtj_seconds(len(p.x) * p.outputs, p.theta0.size)
+  ratio, speedup, exact = _report(ctx, results, own, target, jtj_s, p)
+  data = {"samples": {"train": len(p.x), "validation": len(p.xv)}, "parameters": p.theta0.size,
+          "target_val_mse_scaled": target, "solvers": results,
+          "dense_jtj_seconds": jtj_s, "own_per_iteration_over_jtj": ratio,
+          "speedup_over_fastest_other": speedup, "speedup_is_lower_bound": not exact,
+          "effects": list(scene.effects)}
+  # one row per solver and number, the solver as the method (no axis: one network, 3 outputs)
+  rows = metrics.scored("race", {r["solver"]: {"": {k: v for k, v in r.items()
+                                                    if k not in ("solver", "outcome")}}
+                                 for r in results})
+  return outputs.Result(data, tuple(rows + outputs.plain(data, skip=(("solvers",),))))
 
 
-def _run(ctx) -> dict:
+@dataclasses.dataclass(frozen=True)
+class _Problem:
+  """The race's data, scaled to [-1, 1] (jax arrays), and its start point.
+
+  Attributes:
+    x, y: training counts and forces, unscaled (N, 6), (N, 3).
+    xj, yj, xv, yv: scaled training and validation inputs and targets.
+    theta0: the Nguyen-Widrow start, (P,).
+    hidden, inputs, outputs: the network's sizes.
+    forward: the network, jitted: (theta, scaled inputs) -> scaled outputs.
+  """
+  x: np.ndarray
+  y: np.ndarray
+  xj: object
+  yj: object
+  xv: object
+  yv: object
+  theta0: np.ndarray
+  hidden: int
+  inputs: int
+  outputs: int
+  forward: object
+
+  def val_mse(self, theta) -> float:
+    """Validation MSE in scaled output units, the same for every solver."""
+    import jax.numpy as jnp
+    return float(jnp.mean((self.forward(jnp.asarray(theta).ravel(), self.xv) - self.yv) ** 2))
+
+
+def _problem(ctx) -> tuple:
+  """(the training scene, the race's `_Problem`): Asterisk samples of the train recording,
+  a random subset (`SAMPLES`, `QUICK_SAMPLES`) with a 15 % validation split."""
   import jax
   import jax.numpy as jnp
-  import mujoco.minimize
-  import scipy.optimize
-
   from calibrate import estimators, mlp
   from sim.footpad import protocol, scene as scene_lib
   scene = protocol.scenes(ctx.settings)["train"]
@@ -125,30 +170,30 @@ def _run(ctx) -> dict:
   tr, va = pick[tr_all][:n_want], pick[va_all]
   x, y = data.counts[tr], data.wrench[tr, :3]
   xs, ys = mlp.MinMax.fit(x), mlp.MinMax.fit(y)
-  xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
-  xv, yv = jnp.asarray(xs.forward(data.counts[va])), jnp.asarray(ys.forward(data.wrench[va, :3]))
   h, d, o = 10, x.shape[1], 3
-  theta0 = np.asarray(mlp.nguyen_widrow(jax.random.key(ctx.seed), d, h, o))
-  n_par = theta0.size
-  ctx.print(f"N = {len(x)} training samples ({len(va)} validation), {n_par} parameters")
+  p = _Problem(x, y, jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y)),
+               jnp.asarray(xs.forward(data.counts[va])),
+               jnp.asarray(ys.forward(data.wrench[va, :3])),
+               np.asarray(mlp.nguyen_widrow(jax.random.key(ctx.seed), d, h, o)), h, d, o,
+               jax.jit(lambda t, a: mlp._forward(t, a, h, d, o)))
+  ctx.print(f"N = {len(x)} training samples ({len(va)} validation), {p.theta0.size} parameters")
+  return scene, p
 
-  fwd = jax.jit(lambda t, a: mlp._forward(t, a, h, d, o))
 
-  def val_mse(theta):  # in scaled output units, the same for every solver
-    return float(jnp.mean((fwd(jnp.asarray(theta).ravel(), xv) - yv) ** 2))
-
-  results = []
-  # Project's LM (trainlm's damping, then Nielsen's) and jaxopt's: per-epoch validation
-  # history from `mlp.train`. The trainlm run sets the target.
-  own = None
+def _own_solvers(ctx, p: _Problem) -> tuple[list, object, float]:
+  """The project's LM (trainlm's damping, then Nielsen's) and jaxopt's, from their per-epoch
+  validation history (`mlp.train`); the trainlm run sets the target. (rows, that run, the
+  target validation MSE)."""
+  from calibrate import mlp
+  results, own, target = [], None, None
   for name, backend, damping in (("own LM (trainlm)", "own", "trainlm"),
                                  ("own LM (nielsen)", "own", "nielsen"),
                                  ("jaxopt LM", "jaxopt", "trainlm")):
     first = own is None
-    cfg = mlp.LMConfig(hidden=h, backend=backend, damping=damping,
+    cfg = mlp.LMConfig(hidden=p.hidden, backend=backend, damping=damping,
                        max_fail=6 if first else 10**9, epochs=1000 if backend == "own" else 200)
-    res = mlp.train(np.asarray(xj), np.asarray(yj), np.asarray(xv), np.asarray(yv), cfg,
-                    start=theta0, progress=ctx.progress(f"{name} epochs"))
+    res = mlp.train(np.asarray(p.xj), np.asarray(p.yj), np.asarray(p.xv), np.asarray(p.yv),
+                    cfg, start=p.theta0, progress=ctx.progress(f"{name} epochs"))
     per_iter = res.seconds / max(res.epochs, 1)
     if first:
       own, target = res, res.best_val_mse
@@ -159,12 +204,22 @@ def _run(ctx) -> dict:
                     "iterations": res.epochs if hit is None else hit,
                     "best_val_mse": float(res.val_mse.min()),
                     "seconds_per_iteration": per_iter, "compile_seconds": res.compile_seconds})
-  cap = 60.0 if ctx.quick else 300.0
+  return results, own, target
 
-  res_fn = jax.jit(lambda t: mlp.residuals(t, xj, yj, h))
-  jac_fn = jax.jit(lambda t: jax.jacfwd(mlp.residuals)(t, xj, yj, h))
+
+def _reference_solvers(ctx, p: _Problem, target: float) -> list[dict]:
+  """scipy's MINPACK LM, mujoco.minimize and (if installed) optimistix, each raced to the
+  target on the same residuals, Jacobians and start."""
+  import jax
+  import jax.numpy as jnp
+  import mujoco.minimize
+  import scipy.optimize
+  from calibrate import mlp
+  cap = 60.0 if ctx.quick else 300.0
+  res_fn = jax.jit(lambda t: mlp.residuals(t, p.xj, p.yj, p.hidden))
+  jac_fn = jax.jit(lambda t: jax.jacfwd(mlp.residuals)(t, p.xj, p.yj, p.hidden))
   t = time.perf_counter()
-  jax.block_until_ready((res_fn(jnp.asarray(theta0)), jac_fn(jnp.asarray(theta0))))
+  jax.block_until_ready((res_fn(jnp.asarray(p.theta0)), jac_fn(jnp.asarray(p.theta0))))
   compile_ref = time.perf_counter() - t
 
   def scipy_run(check, state):
@@ -175,7 +230,7 @@ def _run(ctx) -> dict:
     def jac(theta):
       state["jac"] += 1
       return np.asarray(jac_fn(jnp.asarray(theta)))
-    scipy.optimize.least_squares(fun, theta0, jac=jac, method="lm", max_nfev=10**6,
+    scipy.optimize.least_squares(fun, p.theta0, jac=jac, method="lm", max_nfev=10**6,
                                  xtol=1e-15, ftol=1e-15, gtol=1e-15)
 
   def mujoco_run(check, state):
@@ -189,25 +244,30 @@ def _run(ctx) -> dict:
     def jac(theta, r):
       state["jac"] += 1
       return np.asarray(jac_fn(jnp.asarray(theta.ravel())))
-    mujoco.minimize.least_squares(theta0, fun, jacobian=jac, max_iter=10**6, verbose=0,
+    mujoco.minimize.least_squares(p.theta0, fun, jacobian=jac, max_iter=10**6, verbose=0,
                                   xtol=1e-15, gtol=1e-15)
 
   racers = [("scipy least_squares lm", scipy_run, compile_ref),
             ("mujoco.minimize", mujoco_run, compile_ref)]
-  optimistix = _optimistix_racer(jnp.asarray(theta0), res_fn)
+  optimistix = _optimistix_racer(jnp.asarray(p.theta0), res_fn)
   if optimistix is None:
     ctx.print("optimistix is not installed (pip install -e '.[optimistix]'): its "
               "LevenbergMarquardt is left out of the race")
   else:
     racers.append(("optimistix LM", *optimistix))
+  results = []
   for name, fn, compile_s in racers:
     ctx.print(f"running {name} (capped at {cap:.0f} s)...")
-    row = _race(name, fn, val_mse, target, cap)
+    row = _race(name, fn, p.val_mse, target, cap)
     row["compile_seconds"] = compile_s
     row["seconds_per_iteration"] = row["seconds"] / max(row["iterations"], 1)
     results.append(row)
+  return results
 
-  jtj_s = _dense_jtj_seconds(len(x) * o, n_par)
+
+def _report(ctx, results: list, own, target: float, jtj_s: float, p: _Problem) -> tuple:
+  """Prints the race; (own LM's seconds per iteration over the dense J^T J product, each own
+  solver's speed-up over the fastest other one to reach the target, whether that is exact)."""
   own_rows = [r for r in results if r["solver"].startswith("own")]
   others = [r for r in results if not r["solver"].startswith("own")]
   # A solver that missed the target would have needed at least the time it ran.
@@ -220,13 +280,12 @@ def _run(ctx) -> dict:
     ctx.print(f"{r['solver']:24s} {r['outcome']:>24s} {r['seconds']:9.2f} {r['iterations']:11d} "
               f"{r['seconds_per_iteration']:12.4f} {r['compile_seconds']:10.2f}")
   ratio = own_rows[0]["seconds_per_iteration"] / jtj_s
-  ctx.print(f"dense J^T J matmul ({len(x) * o} x {n_par}): {jtj_s * 1e3:.1f} ms; own LM per "
-            f"iteration / that = {ratio:.2f} (this project's "
+  ctx.print(f"dense J^T J matmul ({len(p.x) * p.outputs} x {p.theta0.size}): "
+            f"{jtj_s * 1e3:.1f} ms; own LM per iteration / that = {ratio:.2f} (this project's "
             f"target: at most 3, the Gram product being the floor of an LM iteration)")
   speedup = {}
   reached = [r for r in others if r["outcome"] == "reached"]
   rival = min(reached, key=lambda r: r["seconds"]) if reached else None
-  exact = rival is not None
   for r in own_rows:
     if r["outcome"] != "reached" or r["seconds"] <= 0:
       speedup[r["solver"]] = None
@@ -240,8 +299,4 @@ def _run(ctx) -> dict:
       ctx.print(f"{r['solver']} speed-up to the target: at least {speedup[r['solver']]:.1f}x "
                 f"(no other solver reached it in the time it ran)" if bound else
                 f"{r['solver']}: no other solver ran")
-  return {"samples": {"train": len(x), "validation": len(va)}, "parameters": n_par,
-          "target_val_mse_scaled": target, "solvers": results,
-          "dense_jtj_seconds": jtj_s, "own_per_iteration_over_jtj": ratio,
-          "speedup_over_fastest_other": speedup, "speedup_is_lower_bound": not exact,
-          "effects": list(scene.effects)}
+  return ratio, speedup, rival is not None
