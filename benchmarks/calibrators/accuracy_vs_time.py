@@ -172,7 +172,7 @@ def _rig(ctx, rig: str) -> dict:
 @register("accuracy_vs_time", "every calibrator over its settings on both sensors: training "
           "seconds against test error, Pareto front, where more time stops paying",
           settings=settings, tags=("footpad", "shell", "calibration", "speed"))
-def run(ctx) -> dict:
+def run(ctx):
   out = {}
   for rig in ctx.settings.rigs:
     r = out[rig] = _rig(ctx, rig)
@@ -198,4 +198,23 @@ def run(ctx) -> dict:
                                error_label=r["metric"], benchmark=ctx.name, seed=ctx.seed,
                                what=f"{rig}: test error against training time"),
                  ctx.out, f"accuracy_vs_time_{rig}")
-  return {"rigs": out, "paying_rule": f"a doubling of time lowers the error by >= {PAYING:.0%}"}
+  return _result(out)
+
+
+def _result(out: dict):
+  """One row per calibrator setting and number, the setting as the method (the error is a
+  mean over the axes: no axis), with whether it is on the front and where time stops
+  paying."""
+  from benchmarks import outputs
+  data = {"rigs": out, "paying_rule": f"a doubling of time lowers the error by >= {PAYING:.0%}"}
+  rows = []
+  for rig, r in out.items():
+    on_front = {id(p) for p in r["front"]}
+    rows += outputs.scored(rig, {p["calibrator"]: {"": {
+        **{k: v for k, v in p.items() if isinstance(v, (int, float)) and not isinstance(v, bool)
+           and k not in ("degree", "hidden", "cap")},
+        "on_front": float(id(p) in on_front),
+        "stops_paying": float(p is r["stops_paying"])}} for p in r["points"]})
+  return outputs.Result(data, tuple(rows + outputs.plain(
+      data, skip=(("rigs", "*", "points"), ("rigs", "*", "front"),
+                  ("rigs", "*", "stops_paying")))))

@@ -91,7 +91,8 @@ def _shell(ctx) -> tuple[list[dict], str]:
 @register("effect_ablation", "each effect on alone and all together, both sensors: its cost in "
           "simulation time and its change of the calibrated error", settings=settings,
           tags=("footpad", "shell", "effects", "speed"))
-def run(ctx) -> dict:
+def run(ctx):
+  from benchmarks import outputs
   out = {}
   for rig in ctx.settings.rigs:
     rows, metric = (_footpad if rig == "footpad" else _shell)(ctx)
@@ -103,4 +104,14 @@ def run(ctx) -> dict:
     for r in rows:
       ctx.print(f"  {r['config']:22s} {r['physics_s']:10.2f} {r['chain_s']:8.3f} "
                 f"{r['error']:8.3f} {r['error'] - base['error']:+12.3f}")
-  return {"rigs": out}
+  data = {"rigs": out}
+  table = [row for rig, d in out.items() for r in d["rows"] for row in outputs.scored(
+      f"{rig}/{r['config']}", {SCORED[rig][0]: {
+          ax: {SCORED[rig][1]: v} for ax, v in zip(SCORED[rig][2], r["per_axis"])}})]
+  return outputs.Result(data, tuple(table + outputs.plain(
+      data, skip=(("rigs", "*", "rows", "*", "per_axis"),))))
+
+
+# each rig's per-axis error: (method, metric, axes)
+SCORED = {"footpad": ("LS", "nrmse_pct", ("X", "Y", "Z")),
+          "shell": ("cubic", "median_pct", ("Fx", "Fy", "Fz", "Mx", "My", "Mz"))}

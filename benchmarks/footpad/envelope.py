@@ -166,20 +166,10 @@ def sensitivity(units: np.ndarray, target: np.ndarray) -> tuple[dict[str, float]
           "sourced friction, stick-slip, relaxation, hysteresis and drift ranges; sensitivity of "
           "shear R2 and of the linear stroke fit",
           settings=settings, tags=("footpad", "paper", "envelope", "sweep"))
-def run(ctx) -> dict:
+def run(ctx):
   from benchmarks import executors
-  from sim.footpad import paper as paper_lib
-  from sim.footpad import protocol, scene as scene_lib
   s = ctx.settings
-  base = protocol.base(ctx.quick, ctx.seed)
-  if s.layout is Layout.TURNED:
-    base = dataclasses.replace(base, params=base.params.quarter_turned())
-  rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
-  units = latin_hypercube(s.designs, len(ranges()), rng)
-  seeds = [int(x.generate_state(1)[0])
-           for x in np.random.SeedSequence(ctx.seed, spawn_key=(12,)).spawn(s.network_seeds)]
-  points = [{"base": scene_lib.FootpadScene.config(base), "values": design_values(u),
-             "seeds": seeds} for u in units]
+  units, points = _design_points(ctx)
   layout = ("turned a quarter (three rows along X)" if s.layout is Layout.TURNED
             else "as assumed (three rows along Y)")
   ctx.print(f"{s.designs} designs over {len(ranges())} sourced ranges, die array {layout}, "
@@ -192,16 +182,60 @@ def run(ctx) -> dict:
     raise RuntimeError("fewer than two designs finished: see the failures above")
   rows = [results[k] for k in done]
   ctx.used(*(stem for r in rows for stem in r.get("recordings", ())))
+  cells = _cells(rows)
+  table_rows = {_cell_name(k): e for k, e in cells.items()}
+  ctx.print(f"\n{'metric':26s} {'min':>8s} {'median':>8s} {'max':>8s} {'paper':>8s}  inside")
+  for name, e in table_rows.items():
+    paper = f"{e['paper']:8.2f}" if e["paper"] is not None else f"{'':8s}"
+    inside = {True: "yes", False: "no", None: ""}[e["paper_inside"]]
+    ctx.print(f"{name:26s} {e['min']:8.2f} {e['median']:8.2f} {e['max']:8.2f} {paper}  {inside}")
+  # reported, not forced: the paper credits its 2 x 3 layout with X; the simulated Y lever
+  # arm (11 mm to the outer rows against 6.5 mm) is longer
+  x_better = {m: float(np.mean([r[m]["X"]["nrmse_pct"] < r[m]["Y"]["nrmse_pct"] for r in rows]))
+              for m in ("LS", "LSANN", "NN")}
+  ctx.print("X estimated better than Y (paper: yes), share of designs: " +
+            ", ".join(f"{m} {v:.0%}" for m, v in x_better.items()))
+  split = _stroke_split(ctx, rows)
+  sensitivities = _sensitivities(ctx, rows, units[done])
+  ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
+            f"on {ctx.executor.kind}")
+  data = {"ranges": {k: list(v) for k, v in ranges().items()}, "designs": [
+              {"values": points[k]["values"], **results[k]} for k in done],
+          "envelope": table_rows, "x_better_than_y": x_better, "stroke_fit_split": split,
+          "sensitivity": sensitivities,
+          "failures": [dataclasses.asdict(f) for f in failures],
+          "speed": {"seconds": seconds, "per_design": seconds / len(rows)}}
+  return outputs.Result(data, tuple(_rows(data, cells, done)))
+
+
+def _design_points(ctx) -> tuple[np.ndarray, list[dict]]:
+  """(the designs' points in the unit hypercube (n, d), one worker point per design): the
+  protocol's scene (turned if asked), the design's values and the network seeds, all from
+  the run's seed."""
+  from sim.footpad import protocol, scene as scene_lib
+  s = ctx.settings
+  base = protocol.base(ctx.quick, ctx.seed)
+  if s.layout is Layout.TURNED:
+    base = dataclasses.replace(base, params=base.params.quarter_turned())
+  rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
+  units = latin_hypercube(s.designs, len(ranges()), rng)
+  seeds = [int(x.generate_state(1)[0])
+           for x in np.random.SeedSequence(ctx.seed, spawn_key=(12,)).spawn(s.network_seeds)]
+  return units, [{"base": scene_lib.FootpadScene.config(base), "values": design_values(u),
+                  "seeds": seeds} for u in units]
+
+
+def _cells(rows: list[dict]) -> dict:
+  """{(group, method, axis, metric): min, median and max over the designs, the paper's value
+  and whether it lies inside}: Table I's test scores, the LS stroke fit, the time ratios."""
+  from sim.footpad import paper as paper_lib
 
   def envelope(values, paper):
     lo, med, hi = np.min(values), np.median(values), np.max(values)
     inside = None if paper is None else bool(lo <= paper <= hi)
     return {"min": float(lo), "median": float(med), "max": float(hi), "paper": paper,
             "paper_inside": inside}
-
-  # (group, method, axis, metric): envelope; the printed name is the first three that are set
   cells = {}
-  ctx.print(f"\n{'metric':26s} {'min':>8s} {'median':>8s} {'max':>8s} {'paper':>8s}  inside")
   for m in ("LS", "LSANN", "NN"):
     for ax in ("Z", "Y", "X"):
       for key, i in (("nrmse_pct", 1), ("r2_pct", 2)):
@@ -216,20 +250,12 @@ def run(ctx) -> dict:
                                                             ratio)
   cells[("ratio", "", "", "epochs_lsann_over_nn")] = envelope(
       [r["iteration_ratio"] for r in rows], ratio)
-  table_rows = {_cell_name(k): e for k, e in cells.items()}
-  for name, e in table_rows.items():
-    paper = f"{e['paper']:8.2f}" if e["paper"] is not None else f"{'':8s}"
-    inside = {True: "yes", False: "no", None: ""}[e["paper_inside"]]
-    ctx.print(f"{name:26s} {e['min']:8.2f} {e['median']:8.2f} {e['max']:8.2f} {paper}  {inside}")
-  # reported, not forced: the paper credits its 2 x 3 layout with X; the simulated Y lever
-  # arm (11 mm to the outer rows against 6.5 mm) is longer
-  x_better = {m: float(np.mean([r[m]["X"]["nrmse_pct"] < r[m]["Y"]["nrmse_pct"] for r in rows]))
-              for m in ("LS", "LSANN", "NN")}
-  ctx.print("X estimated better than Y (paper: yes), share of designs: " +
-            ", ".join(f"{m} {v:.0%}" for m, v in x_better.items()))
+  return cells
 
-  # the linear fit's stroke residual, split: what a cubic on the same strokes removes is a
-  # static nonlinearity; what it leaves is history and noise
+
+def _stroke_split(ctx, rows: list[dict]) -> dict:
+  """The linear fit's stroke residual, split: what a cubic on the same strokes removes is a
+  static nonlinearity; what it leaves is history and noise."""
   split = {ax: {"LS": float(np.median([r["LS_train"][ax]["nrmse_pct"] for r in rows])),
                 "cubic": float(np.median([r["POLY3_train"][ax]["nrmse_pct"] for r in rows]))}
            for ax in ("X", "Y", "Z") if all("POLY3_train" in r for r in rows)}
@@ -238,21 +264,26 @@ def run(ctx) -> dict:
               "; ".join(f"{ax} LS {v['LS']:.2f}, cubic {v['cubic']:.2f}"
                         for ax, v in split.items()) +
               " (what the cubic leaves is history and noise, no static map's to remove)")
+  return split
 
+
+def _sensitivities(ctx, rows: list[dict], units: np.ndarray) -> dict:
+  """Each parameter's share of the variance of the networks' shear R2 and of the LS stroke
+  NRMSE over the finished designs (their points `units`), printed."""
   targets = {
       SHEAR_R2: np.array([np.mean([r[m][ax]["r2_pct"] for m in ("LSANN", "NN")
                                    for ax in ("X", "Y")]) for r in rows]),
       LS_STROKES: np.array([np.mean([r["LS_train"][ax]["nrmse_pct"] for ax in ("X", "Y")])
                             for r in rows])}
-  sensitivities = {}
+  out = {}
+  if len(rows) <= len(ranges()) + 1:
+    ctx.print(f"\nsensitivity: needs more than {len(ranges()) + 1} finished designs "
+              f"(--set designs=N); {len(rows)} finished")
+    return out
   for name, target in targets.items():
-    if len(rows) <= len(ranges()) + 1:
-      ctx.print(f"\nsensitivity: needs more than {len(ranges()) + 1} finished designs "
-                f"(--set designs=N); {len(rows)} finished")
-      break
-    shares, fit_r2 = sensitivity(units[done], target)
+    shares, fit_r2 = sensitivity(units, target)
     dof = len(rows) - len(ranges()) - 1
-    sensitivities[name] = {"shares": shares, "linear_fit_r2": fit_r2, "residual_dof": dof}
+    out[name] = {"shares": shares, "linear_fit_r2": fit_r2, "residual_dof": dof}
     ctx.print(f"\nsensitivity of the {name} (range {target.min():.2f}-{target.max():.2f} "
               f"over the designs): share of its variance per parameter (a linear fit over "
               f"the designs explains {fit_r2:.0%}, {dof} residual degree(s) of freedom" +
@@ -260,15 +291,7 @@ def run(ctx) -> dict:
                f"designs={len(ranges()) + 12} or more)" if dof < 10 else ")"))
     for param, share in sorted(shares.items(), key=lambda kv: -kv[1]):
       ctx.print(f"  {param:32s} {share:6.1%}")
-  ctx.print(f"\n{len(rows)} designs in {seconds:.0f} s ({seconds / len(rows):.1f} s per design) "
-            f"on {ctx.executor.kind}")
-  data = {"ranges": {k: list(v) for k, v in ranges().items()}, "designs": [
-              {"values": points[k]["values"], **results[k]} for k in done],
-          "envelope": table_rows, "x_better_than_y": x_better, "stroke_fit_split": split,
-          "sensitivity": sensitivities,
-          "failures": [dataclasses.asdict(f) for f in failures],
-          "speed": {"seconds": seconds, "per_design": seconds / len(rows)}}
-  return outputs.Result(data, tuple(_rows(data, cells, done)))
+  return out
 
 
 def _cell_name(cell: tuple) -> str:

@@ -46,82 +46,27 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None) -> dict:
     return _run_table(ctx, nn_paths, seeds)
 
 
-def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
-  from calibrate import estimators, metrics
+def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None):
+  from benchmarks import outputs
+  from calibrate import estimators
   from sim.footpad import protocol
   recs = {name: rec for name, (rec, _) in footpad.recordings(ctx).items()}
   strokes, nn_train, test = protocol.splits(recs["train"], recs["test"], nn_paths).values()
-  truth = test.wrench[:, :3]
-
   # the names `calibrate` CSVs of footpad recordings carry (benchmarks.footpad.dataset)
   names = dict(inputs=[f"p{i + 1}" for i in range(strokes.counts.shape[1])],
                outputs=["Fx", "Fy", "Fz"])
-  t0 = time.perf_counter()
-  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3], **names)
-  ls_seconds = time.perf_counter() - t0
-  ls_train = metrics.summary(ls.predict(strokes.counts), strokes.wrench[:, :3], AXES)
-  ctx.print(f"LS on {len(strokes)} stroke samples (rank {ls.linear.rank}); networks on "
-            f"{len(nn_train)} samples of {', '.join(nn_paths)}; test on {len(test)} samples")
-  ctx.print(f"{'LS train NRMSE %':18s} " + "  ".join(
-      f"{ax} {ls_train[ax]['nrmse_pct']:6.2f} (paper {PAPER_LS_TRAIN_NRMSE[ax]:5.2f})"
-      for ax in ("Z", "Y", "X")))
-
-  n_seeds = seeds or SEEDS
-  child = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(ctx.seed).spawn(n_seeds)]
   est_dir = ctx.out / "estimators"
   est_dir.mkdir(parents=True, exist_ok=True)
-  ls.save(est_dir / "LS.npz")
-  per_seed = []
-  fitted = {"LS": [ls], "LSANN": [], "NN": []}
-  on_test = {"LS": [ls.predict(test.counts)], "LSANN": [], "NN": []}  # per seed, (N, 3) N
-  for k, seed in enumerate(child):
-    row, trained = {"seed": seed}, {}
-    for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
-      est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
-                           seed=seed, progress=ctx.progress(f"{kind.value} seed {k + 1}/{n_seeds}"),
-                           **names)
-      est.save(est_dir / f"{kind.value}_seed{k}.npz")
-      fitted[kind.value].append(est)
-      on_test[kind.value].append(est.predict(test.counts))
-      tr = trained[kind.value] = est.training
-      row[kind.value] = {"test": metrics.summary(on_test[kind.value][-1], truth, AXES),
-                         "train": {"seconds": tr.seconds, "compile_seconds": tr.compile_seconds,
-                                   "iterations": tr.epochs, "best_epoch": tr.best_epoch,
-                                   "stop": tr.stop.name, "final_val_mse": tr.best_val_mse}}
-    lsann, nn = trained["LSANN"], trained["NN"]
-    row["LSANN"]["train"]["iterations_to_nn_val_mse"] = lsann.epochs_to(nn.best_val_mse)
-    row["NN"]["train"]["iterations_to_nn_val_mse"] = nn.best_epoch
-    # the accuracy both arms reach: the worse of the two best validation MSEs
-    common = max(nn.best_val_mse, lsann.best_val_mse)
-    row["common_val_mse"] = common
-    row["iterations_to_common"] = {"LSANN": lsann.epochs_to(common), "NN": nn.epochs_to(common)}
-    per_seed.append(row)
-
+  ls, ls_seconds, ls_train = _fit_ls(ctx, strokes, names, est_dir)
+  ctx.print(f"networks on {len(nn_train)} samples of {', '.join(nn_paths)}; test on "
+            f"{len(test)} samples")
+  n_seeds = seeds or SEEDS
+  child = [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(ctx.seed).spawn(n_seeds)]
+  per_seed, fitted, on_test = _fit_networks(ctx, ls, nn_train, test, child, names, est_dir)
   for m in ("LSANN", "NN"):  # the seeds as one estimator: their mean and spread
     estimators.combine(fitted[m]).save(est_dir / f"{m}_ensemble.npz")
-  results = {"LS": {**metrics.summary(on_test["LS"][0], truth, AXES),
-                    "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
-  for m in ("LSANN", "NN"):
-    results[m] = {ax: {key: float(np.median([r[m]["test"][ax][key] for r in per_seed]))
-                       for key in per_seed[0][m]["test"][ax]} for ax in AXES}
-    results[m]["train"] = {key: float(np.median([r[m]["train"][key] for r in per_seed]))
-                           for key in ("seconds", "compile_seconds", "iterations")}
-  hits = [r["LSANN"]["train"]["iterations_to_nn_val_mse"] for r in per_seed]
-  ratios = [h / r["NN"]["train"]["best_epoch"] for h, r in zip(hits, per_seed)
-            if h is not None and r["NN"]["train"]["best_epoch"] > 0]
-  common = [r["iterations_to_common"]["LSANN"] / max(r["iterations_to_common"]["NN"], 1)
-            for r in per_seed]
-  comparison = {
-      "time_ratio_lsann_over_nn": float(np.median(
-          [r["LSANN"]["train"]["seconds"] / r["NN"]["train"]["seconds"] for r in per_seed])),
-      "iteration_ratio_to_nn_val_mse": float(np.median(ratios)) if ratios else None,
-      "seeds_where_lsann_reached_nn_val_mse": len(ratios),
-      "iteration_ratio_to_common_val_mse": float(np.median(common)),
-      "x_better_than_y": {m: results[m]["X"]["nrmse_pct"] < results[m]["Y"]["nrmse_pct"]
-                          for m in METHODS},
-      "networks_better_than_ls": {m: {ax: results[m][ax]["nrmse_pct"] < results["LS"][ax]["nrmse_pct"]
-                                      for ax in AXES} for m in ("LSANN", "NN")},
-  }
+  results = _medians(per_seed, on_test["LS"][0], test.wrench[:, :3], ls_seconds)
+  comparison = _comparison(per_seed, results)
   _print_table(ctx, results, comparison, n_seeds, per_seed)
   outside = {m: float(fitted[m][0].outside(test.counts).any(axis=1).mean()) for m in METHODS}
   comparison["test_outside_training_range"] = outside
@@ -138,8 +83,90 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None) -> dict:
                     "training_minutes": PAPER_MINUTES, "iteration_ratio": paper.TIME_RATIO},
           "samples": {"ls_train": len(strokes), "nn_train": len(nn_train), "test": len(test)},
           "nn_paths": list(nn_paths), "effects": list(recs["train"].meta["effects"])}
-  from benchmarks import outputs
   return outputs.Result(data, tuple(_rows(data)))
+
+
+def _fit_ls(ctx, strokes, names: dict, est_dir) -> tuple:
+  """The paper's LS fit on the Z presses and X/Y strokes, saved as LS.npz: (estimator, fit
+  seconds, its training summary), the training NRMSE printed beside the paper's."""
+  from calibrate import estimators, metrics
+  t0 = time.perf_counter()
+  ls = estimators.fit(estimators.Kind.LS, strokes.counts, strokes.wrench[:, :3], **names)
+  seconds = time.perf_counter() - t0
+  ls.save(est_dir / "LS.npz")
+  train = metrics.summary(ls.predict(strokes.counts), strokes.wrench[:, :3], AXES)
+  ctx.print(f"LS on {len(strokes)} stroke samples (rank {ls.linear.rank})")
+  ctx.print(f"{'LS train NRMSE %':18s} " + "  ".join(
+      f"{ax} {train[ax]['nrmse_pct']:6.2f} (paper {PAPER_LS_TRAIN_NRMSE[ax]:5.2f})"
+      for ax in ("Z", "Y", "X")))
+  return ls, seconds, train
+
+
+def _fit_networks(ctx, ls, nn_train, test, child: list[int], names: dict, est_dir) -> tuple:
+  """LSANN and NN-only, one of each per seed of `child`, each saved: (per-seed rows of test
+  scores and training figures, {method: estimators}, {method: test predictions (N, 3) N})."""
+  from calibrate import estimators, metrics
+  truth = test.wrench[:, :3]
+  per_seed = []
+  fitted = {"LS": [ls], "LSANN": [], "NN": []}
+  on_test = {"LS": [ls.predict(test.counts)], "LSANN": [], "NN": []}
+  for k, seed in enumerate(child):
+    row, trained = {"seed": seed}, {}
+    for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
+      est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
+                           seed=seed, progress=ctx.progress(
+                               f"{kind.value} seed {k + 1}/{len(child)}"), **names)
+      est.save(est_dir / f"{kind.value}_seed{k}.npz")
+      fitted[kind.value].append(est)
+      on_test[kind.value].append(est.predict(test.counts))
+      tr = trained[kind.value] = est.training
+      row[kind.value] = {"test": metrics.summary(on_test[kind.value][-1], truth, AXES),
+                         "train": {"seconds": tr.seconds, "compile_seconds": tr.compile_seconds,
+                                   "iterations": tr.epochs, "best_epoch": tr.best_epoch,
+                                   "stop": tr.stop.name, "final_val_mse": tr.best_val_mse}}
+    lsann, nn = trained["LSANN"], trained["NN"]
+    row["LSANN"]["train"]["iterations_to_nn_val_mse"] = lsann.epochs_to(nn.best_val_mse)
+    row["NN"]["train"]["iterations_to_nn_val_mse"] = nn.best_epoch
+    # the accuracy both arms reach: the worse of the two best validation MSEs
+    common = max(nn.best_val_mse, lsann.best_val_mse)
+    row["common_val_mse"] = common
+    row["iterations_to_common"] = {"LSANN": lsann.epochs_to(common), "NN": nn.epochs_to(common)}
+    per_seed.append(row)
+  return per_seed, fitted, on_test
+
+
+def _medians(per_seed: list, ls_pred, truth, ls_seconds: float) -> dict:
+  """{method: {axis: scores}, "train": ...}: LS's scores, the networks' medians over seeds."""
+  from calibrate import metrics
+  results = {"LS": {**metrics.summary(ls_pred, truth, AXES),
+                    "train": {"seconds": ls_seconds, "compile_seconds": 0.0, "iterations": 1}}}
+  for m in ("LSANN", "NN"):
+    results[m] = {ax: {key: float(np.median([r[m]["test"][ax][key] for r in per_seed]))
+                       for key in per_seed[0][m]["test"][ax]} for ax in AXES}
+    results[m]["train"] = {key: float(np.median([r[m]["train"][key] for r in per_seed]))
+                           for key in ("seconds", "compile_seconds", "iterations")}
+  return results
+
+
+def _comparison(per_seed: list, results: dict) -> dict:
+  """The paper's claims as measured: LSANN's time and iterations against NN-only's, X
+  against Y, the networks against LS."""
+  hits = [r["LSANN"]["train"]["iterations_to_nn_val_mse"] for r in per_seed]
+  ratios = [h / r["NN"]["train"]["best_epoch"] for h, r in zip(hits, per_seed)
+            if h is not None and r["NN"]["train"]["best_epoch"] > 0]
+  common = [r["iterations_to_common"]["LSANN"] / max(r["iterations_to_common"]["NN"], 1)
+            for r in per_seed]
+  return {
+      "time_ratio_lsann_over_nn": float(np.median(
+          [r["LSANN"]["train"]["seconds"] / r["NN"]["train"]["seconds"] for r in per_seed])),
+      "iteration_ratio_to_nn_val_mse": float(np.median(ratios)) if ratios else None,
+      "seeds_where_lsann_reached_nn_val_mse": len(ratios),
+      "iteration_ratio_to_common_val_mse": float(np.median(common)),
+      "x_better_than_y": {m: results[m]["X"]["nrmse_pct"] < results[m]["Y"]["nrmse_pct"]
+                          for m in METHODS},
+      "networks_better_than_ls": {m: {ax: results[m][ax]["nrmse_pct"] < results["LS"][ax]["nrmse_pct"]
+                                      for ax in AXES} for m in ("LSANN", "NN")},
+  }
 
 
 def _rows(data: dict) -> list:

@@ -60,7 +60,7 @@ def _stride_extremes(f: np.ndarray, t: np.ndarray, stride: float) -> tuple[float
 @register("collisions", "shell robot walking into a wall corner-first and head-on: force traces "
           "vs Fig. 11", settings=shell.protocol_settings, fixed=shell.FIXED,
           tags=("shell", "paper", "dynamics"))
-def run(ctx) -> dict:
+def run(ctx):
   from models import shell as model_lib
   from sim.shell import walk as walk_lib
   cal = shell.calibrated(ctx)
@@ -95,7 +95,41 @@ def run(ctx) -> dict:
   files.atomic_write(ctx.out / "course.npz", lambda out: np.savez(
       out, time=r.time, shell=f, contact=r.contact, spring=spring, pose=r.pose, crank=r.crank,
       touching=r.touching))
+  _print(ctx, out)
+  _figure(ctx, r, f, m, yaw)
+  return _result(out)
+
+
+# per-axis (Fx, Fy, Fz) lists of the results: {key: (method, metric)}
+_PER_AXIS = {
+    "walking_amplitude": ("shell", "walking_amplitude"),
+    "walking_spring_amplitude": ("springs", "walking_amplitude"),
+    "corner_min": ("shell", "corner_min"), "corner_contact_min": ("contact", "corner_min"),
+    "along_mean": ("shell", "along_mean"), "along_contact_mean": ("contact", "along_mean"),
+    "end_wall_min": ("shell", "end_wall_min"),
+    "end_wall_contact_min": ("contact", "end_wall_min"),
+    "pushing_mean": ("shell", "pushing_mean"),
+    "pushing_contact_mean": ("contact", "pushing_mean")}
+
+
+def _result(out: dict):
+  """The course's numbers as rows: each per-axis force with its axis and its source (the
+  calibrated shell, the walls' contact truth, the mount springs) as the method."""
+  from benchmarks import outputs
+  by_method: dict = {}
+  for key, (method, metric) in _PER_AXIS.items():
+    for ax, v in zip(("Fx", "Fy", "Fz"), out[key]):
+      by_method.setdefault(method, {}).setdefault(ax, {})[metric] = v
+  data = {"results": out, "paper": PAPER}
+  rows = outputs.scored("course", by_method)
+  return outputs.Result(data, tuple(rows + outputs.plain(
+      data, skip=tuple(("results", k) for k in _PER_AXIS))))
+
+
+def _print(ctx, out: dict) -> None:
+  """The course's phases (I-IV) against the paper's Fig. 11."""
   a, s = out["walking_amplitude"], out["walking_spring_amplitude"]
+  push_lo, push_hi = out["pushing_stride_range"]
   ctx.print(f"[I-II] walking at {out['walking_speed']:.3f} m/s: Fx, Fy, Fz +-{a[0]:.3f}, "
             f"{a[1]:.3f}, {a[2]:.3f} N (springs +-{s[0]:.3f}, {s[1]:.3f}, {s[2]:.3f}); "
             "paper +-0.15 N")
@@ -111,6 +145,10 @@ def run(ctx) -> dict:
             f"mu_s x weight {out['feet_friction_limit']:.3f}), per stride from "
             f"{push_lo:+.3f} to {push_hi:+.3f} N (medians); paper -0.5 N spike, then -0.5 to "
             "-0.2 N at the stride frequency")
+
+
+def _figure(ctx, r, f: np.ndarray, m: dict, yaw: np.ndarray) -> None:
+  """figures/course.png: the shell's and the walls' forces and the yaw along the course."""
   from benchmarks import figures
   groups = {f"F{ax}": {"shell (calibrated)": f[:, i], "walls' contact": r.contact[:, i]}
             for i, ax in enumerate("xyz")}
@@ -123,4 +161,3 @@ def run(ctx) -> dict:
                               what="shell force along the course (shell paper Fig. 11)"),
                ctx.out, "course")
   ctx.print(f"traces: {ctx.out / 'course.npz'}, figure: {ctx.out / 'figures' / 'course.png'}")
-  return {"results": out, "paper": PAPER}

@@ -29,7 +29,7 @@ def params_settings(quick: bool, seed: int):
 
 @register("shell_geometry", "shell height map (rays) vs the paper's Eqn 3: rank, condition, "
           "slope sweep, speed", settings=params_settings, tags=("shell", "design", "fast"))
-def run(ctx) -> dict:
+def run(ctx):
   from models import shell
   from sim.shell import geometry as geo
   params = ctx.settings
@@ -61,6 +61,18 @@ def run(ctx) -> dict:
   rate = frames / (time.perf_counter() - t)
   ctx.print(f"\nclosed-form heights: {rate:,.0f} frames/s ({frames} random poses; this project's "
             f"target for design sweeps: >= 2 M)")
-  return {"slopes": [params.slope_x, params.slope_y], "map": sim_map.tolist(),
-          "eqn3": paper.tolist(), "max_rel_difference": diff, "rank": q_sim.rank,
-          "condition": q_sim.condition, "sweep": sweep, "closed_form_frames_per_s": rate}
+  from benchmarks import outputs
+  data = {"slopes": {"slope_x": params.slope_x, "slope_y": params.slope_y},
+          "map": sim_map.tolist(), "eqn3": paper.tolist(), "max_rel_difference": diff,
+          "rank": q_sim.rank, "condition": q_sim.condition, "sweep": sweep,
+          "closed_form_frames_per_s": rate}
+  # the maps' entries: a sensor's height per unit motion along one pose axis; the map's
+  # source (MuJoCo's rays, the paper's closed form) as the method
+  rows = outputs.scored("height map", {
+      source: {ax: {f"sensor {i + 1}": m[i][j] for i in range(len(m))}
+               for j, ax in enumerate(POSE_AXES)}
+      for source, m in (("rays", sim_map), ("Eqn 3", paper))})
+  return outputs.Result(data, tuple(rows + outputs.plain(data, skip=(("map",), ("eqn3",)))))
+
+
+POSE_AXES = ("x", "y", "z", "theta_x", "theta_y", "theta_z")
