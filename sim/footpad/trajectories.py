@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
-from typing import Literal
+import re
+from typing import Literal, Optional
 
 import numpy as np
 
@@ -144,20 +145,26 @@ def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10
 class Waypoints:
   """A user's CNC path: straight moves through `points` (K, 3), m, in the rig's frame (x, y
   on the plate; z = 0 at first touch, negative pressing into the plate), each move at its
-  feed `feeds` (K,), m/s (the first row is the start: its feed is unused)."""
+  feed `feeds` (K,), m/s (the first row is the start: its feed is unused), the machine then
+  holding still at the point for `holds` (K,) s (a G4 dwell; None: no holds)."""
   points: np.ndarray
   feeds: np.ndarray
   name: str
+  holds: Optional[np.ndarray] = None
+
+
+MIN_FEED = 0.1  # mm/s: slower asks for hours of 1 kHz samples per millimetre
+MAX_SECONDS = 3600.0  # s: the longest path a run simulates (3.6 M samples at 1 kHz)
 
 
 def read_path(path: str) -> Waypoints:
   """Reads a path file: CSV rows `x, y, z, feed` in mm and mm/s (a header row of names, and
-  `#` comments, are skipped), or G-code (`.gcode`, `.nc`, `.ngc`: G0/G1 moves with X Y Z in
-  mm and F in mm/min, modal as G-code is; G0 at `RAPID`; G21 millimetres only; the
-  machine starts at the origin).
+  `#` comments, are skipped), or G-code (`.gcode`, `.nc`, `.ngc`; see `_gcode_rows` for the
+  words it honours and refuses). Every feed is at least `MIN_FEED` and the whole path takes
+  at most `MAX_SECONDS`.
 
   Raises:
-    errors.DataError naming the file, the line and the column that cannot be read.
+    errors.DataError naming the file, the line and the column or word that cannot be run.
   """
   file = pathlib.Path(path)
   try:
@@ -167,16 +174,22 @@ def read_path(path: str) -> Waypoints:
   if file.suffix.lower() in (".gcode", ".nc", ".ngc"):
     rows = _gcode_rows(file, lines)
   else:
-    rows = _csv_rows(file, lines)
+    rows = [r + [0.0] for r in _csv_rows(file, lines)]
   if len(rows) < 2:
     raise errors.DataError(f"path file {file}: needs at least two waypoints, found {len(rows)}")
   a = np.array(rows, dtype=float)
-  points, feeds = a[:, :3] * 1e-3, a[:, 3] * 1e-3
-  if np.any(feeds[1:] <= 0):
-    k = int(np.flatnonzero(feeds[1:] <= 0)[0]) + 1
-    raise errors.DataError(f"path file {file}: waypoint {k + 1} has feed {a[k, 3]:g}: "
-                           f"a move needs a feed > 0")
-  return Waypoints(points, feeds, f"custom:{file.name}")
+  points, feeds, holds = a[:, :3] * 1e-3, a[:, 3] * 1e-3, a[:, 4]
+  slow = np.flatnonzero(a[1:, 3] < MIN_FEED)
+  if len(slow):
+    k = int(slow[0]) + 1
+    raise errors.DataError(f"path file {file}: waypoint {k + 1} has feed {a[k, 3]:g} mm/s: "
+                           f"allowed at least {MIN_FEED:g} mm/s ({MIN_FEED * 60:g} mm/min)")
+  seconds = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1) / feeds[1:])
+                  + holds.sum())
+  if seconds > MAX_SECONDS:
+    raise errors.DataError(f"path file {file}: the path takes {seconds:.4g} s at its feeds; "
+                           f"allowed at most {MAX_SECONDS:g} s")
+  return Waypoints(points, feeds, f"custom:{file.name}", holds if holds.any() else None)
 
 
 _COLUMNS = ("x", "y", "z", "feed")
@@ -203,37 +216,134 @@ def _csv_rows(file: pathlib.Path, lines: list[str]) -> list[list[float]]:
   return rows
 
 
+_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+# G words that change no motion here: XY plane, mm, no cutter or length offsets, the first
+# work system, path modes, canned cycles off, feed per minute
+_INERT_G = {17, 21, 40, 49, 54, 61, 64, 80, 94}
+_INERT_TEXT = ", ".join(f"G{g}" for g in sorted(_INERT_G))
+_ARC_STEP = np.radians(2.0)  # arcs run as chords of at most 2 degrees
+
+
 def _gcode_rows(file: pathlib.Path, lines: list[str]) -> list[list[float]]:
-  x = y = z = 0.0
-  feed = None
-  rows = [[x, y, z, 0.0]]
+  """Rows (x, y, z mm, feed mm/s, hold s) of a G-code file. Honoured: G0 (at `RAPID`), G1,
+  G2/G3 arcs in the XY plane with I, J centre offsets (as chords of at most 2 degrees, Z
+  moving linearly: helices too), G90/G91 absolute and relative coordinates, G4 dwell (P in
+  seconds, as LinuxCNC and grbl read it), words written without spaces (`G1X2F300`), motion
+  modes kept from line to line, N line numbers, M, S and T words (no motion). Refused with
+  the line: inches (G20), arcs by radius (R), other planes, and every other G word (homing,
+  offsets, inverse-time feed...). The machine starts at the origin."""
+  pos = np.zeros(3)
+  feed, mode, relative = None, None, False
+  rows = [[0.0, 0.0, 0.0, 0.0, 0.0]]
   for n, line in enumerate(lines, 1):
-    text = line.split(";")[0].split("(")[0].strip().upper()
+    text = re.sub(r"\(.*?\)", " ", line.split(";")[0]).strip().upper()
     if not text:
       continue
-    words = text.split()
-    code = words[0]
-    if code in ("G20",):
-      raise errors.DataError(f"path file {file}, line {n}: G20 (inches) is not supported: "
-                             f"write the path in millimetres (G21)")
-    if code not in ("G0", "G00", "G1", "G01"):
-      continue  # units, plane and spindle words carry no motion
-    values = {}
-    for w in words[1:]:
-      if w[0] not in "XYZF" or not _is_number(w[1:]):
-        raise errors.DataError(f"path file {file}, line {n}: {w!r} is not one of X, Y, Z, F "
-                               f"followed by a number")
-      values[w[0]] = float(w[1:])
-    x, y, z = values.get("X", x), values.get("Y", y), values.get("Z", z)
-    feed = values.get("F", feed)
-    if code in ("G0", "G00"):
-      rows.append([x, y, z, RAPID * 1e3])
+    words = _words(file, n, text)
+    values, motion, dwell = {}, None, False
+    for letter, number in words:
+      if letter == "G":
+        code = float(number)
+        if code in (0, 1, 2, 3):
+          motion = int(code)
+        elif code in (90, 91):
+          relative = code == 91
+        elif code == 4:
+          dwell = True
+        elif code == 20:
+          raise errors.DataError(f"path file {file}, line {n}: G20 (inches) is not supported: "
+                                 f"write the path in millimetres (G21)")
+        elif code not in _INERT_G:
+          raise errors.DataError(f"path file {file}, line {n}: G{number} is not supported "
+                                 f"(honoured: G0-G4, G90/G91, and {_INERT_TEXT}, which move "
+                                 f"nothing)")
+      elif letter in "NMST":
+        continue
+      elif letter in "XYZFIJP":
+        values[letter] = float(number)
+      elif letter == "R":
+        raise errors.DataError(f"path file {file}, line {n}: an arc needs its centre as I, J "
+                               f"(offsets from its start, mm); arcs by radius (R) are not "
+                               f"supported")
+      else:
+        raise errors.DataError(f"path file {file}, line {n}: '{letter}{number}' is not one "
+                               f"of X, Y, Z, F, I, J, P (or G, M, N, S, T)")
+    if "F" in values:
+      feed = values.pop("F")
+    if dwell:
+      rows[-1][4] += _dwell(file, n, values)
       continue
-    if feed is None:
-      raise errors.DataError(f"path file {file}, line {n}: a G1 move before any feed "
+    mode = motion if motion is not None else mode
+    if not set(values) & set("XYZ"):
+      if set(values) & set("IJ"):
+        raise errors.DataError(f"path file {file}, line {n}: I/J without an arc's end point")
+      continue
+    if mode is None:
+      raise errors.DataError(f"path file {file}, line {n}: coordinates before any motion word "
+                             f"(G0, G1, G2 or G3)")
+    end = np.array([values.get(k, 0.0 if relative else pos[i]) for i, k in enumerate("XYZ")])
+    end = pos + end if relative else end
+    if mode == 0:
+      rows.append([*end, RAPID * 1e3, 0.0])
+    elif feed is None:
+      raise errors.DataError(f"path file {file}, line {n}: a G{mode} move before any feed "
                              f"(F, mm/min)")
-    rows.append([x, y, z, feed / 60.0])
+    elif mode == 1:
+      rows.append([*end, feed / 60.0, 0.0])
+    else:
+      rows += [[*p, feed / 60.0, 0.0] for p in _arc(file, n, pos, end, values, mode == 2)]
+    pos = end
   return rows
+
+
+def _words(file: pathlib.Path, n: int, text: str) -> list[tuple[str, str]]:
+  """(letter, number) pairs of a G-code line, spaced or not; anything else is refused."""
+  words, at = [], 0
+  for m in _WORD.finditer(text):
+    if text[at:m.start()].strip():
+      break
+    words.append((m[1], m[2]))
+    at = m.end()
+  rest = text[at:].strip()
+  if rest:
+    raise errors.DataError(f"path file {file}, line {n}: {rest.split()[0]!r} is not a G-code "
+                           f"word (a letter followed by a number)")
+  return words
+
+
+def _dwell(file: pathlib.Path, n: int, values: dict) -> float:
+  seconds = values.get("P")
+  if seconds is None or not 0 <= seconds <= MAX_SECONDS or set(values) - {"P"}:
+    raise errors.DataError(f"path file {file}, line {n}: G4 needs P, the dwell in seconds "
+                           f"(0 to {MAX_SECONDS:g}), and nothing else")
+  return seconds
+
+
+def _arc(file: pathlib.Path, n: int, start: np.ndarray, end: np.ndarray, values: dict,
+         clockwise: bool) -> list[np.ndarray]:
+  """Chord end points of a G2 (clockwise) or G3 arc in XY from `start` to `end` about
+  start + (I, J); a full circle where they meet. The end must lie on the circle."""
+  if not set(values) & set("IJ"):
+    raise errors.DataError(f"path file {file}, line {n}: an arc needs its centre as I, J "
+                           f"(offsets from its start, mm); arcs by radius (R) are not "
+                           f"supported")
+  centre = start[:2] + np.array([values.get("I", 0.0), values.get("J", 0.0)])
+  r0, r1 = np.linalg.norm(start[:2] - centre), np.linalg.norm(end[:2] - centre)
+  if r0 == 0 or abs(r0 - r1) > max(1e-3, 1e-3 * r0):
+    raise errors.DataError(f"path file {file}, line {n}: the arc's end is {r1:.4g} mm from "
+                           f"its centre and its start {r0:.4g} mm: they must be equal")
+  a0 = np.arctan2(*(start[:2] - centre)[::-1])
+  a1 = np.arctan2(*(end[:2] - centre)[::-1])
+  sweep = (a0 - a1) % (2 * np.pi) if clockwise else (a1 - a0) % (2 * np.pi)
+  sweep = sweep or 2 * np.pi  # the end on the start: a full circle
+  k = max(1, int(np.ceil(sweep / _ARC_STEP)))
+  angles = a0 + (-1 if clockwise else 1) * sweep * np.arange(1, k + 1) / k
+  out = [np.array([centre[0] + r0 * np.cos(t), centre[1] + r0 * np.sin(t), 0.0])
+         for t in angles]
+  for j, p in enumerate(out, 1):
+    p[2] = start[2] + (end[2] - start[2]) * j / k
+  out[-1] = end.copy()
+  return out
 
 
 def _is_number(text: str) -> bool:
@@ -244,12 +354,17 @@ def _is_number(text: str) -> bool:
 
 
 def waypoint_episode(waypoints: Waypoints, dt: float) -> Episode:
-  """The CNC commands of a user's path: each move resampled at its feed; phase 1 where the
-  command presses into the plate (z < 0); the episode's z_level is its deepest press."""
+  """The CNC commands of a user's path: each move resampled at its feed, each hold as the
+  point repeated for its time; phase 1 where the command presses into the plate (z < 0);
+  the episode's z_level is its deepest press."""
+  holds = np.zeros(len(waypoints.points)) if waypoints.holds is None else waypoints.holds
   parts = [waypoints.points[:1]]
-  for k in range(1, len(waypoints.points)):
-    seg = _resample(waypoints.points[k - 1:k + 1], waypoints.feeds[k] * dt)
-    parts.append(seg[1:])
+  for k in range(len(waypoints.points)):
+    if k:
+      seg = _resample(waypoints.points[k - 1:k + 1], waypoints.feeds[k] * dt)
+      parts.append(seg[1:])
+    if holds[k] > 0:
+      parts.append(np.repeat(waypoints.points[k:k + 1], int(round(holds[k] / dt)), axis=0))
   target = np.concatenate(parts)
   phase = (target[:, 2] < 0).astype(np.int8)
   return Episode(waypoints.name, float(max(-target[:, 2].min(), 0.0)), target, phase)
