@@ -2,7 +2,8 @@
 
 `claim(out)` fails in the first second, with one line, when `--out` is a file, cannot be
 created or written, or another live run holds it; otherwise it takes a lock file in it that
-`release` removes. A lock left by a run that was killed (its process is gone) is taken over.
+`release` removes. The hold is the system's (`flock`): a run that was killed, however, holds
+nothing, and two runs started at once can never both hold one folder.
 
 A finished run leaves (`write_run`): `manifest.json` (the command, every resolved setting,
 seed, effects, package versions, git commit, the cached recordings it used, timings),
@@ -15,6 +16,7 @@ them), `table.md` (the printed report), and where the benchmark has them
 from __future__ import annotations
 
 import dataclasses
+import fcntl
 import os
 import pathlib
 from typing import Any
@@ -39,15 +41,18 @@ def quiet_out_of_range() -> None:
 
 @dataclasses.dataclass
 class Lock:
-  """This run's hold on a results folder."""
+  """This run's hold on a results folder: an open lock file under an exclusive `flock`,
+  which the system drops when the process ends, however it ends."""
   path: pathlib.Path
+  fd: int
 
   def release(self) -> None:
+    # unlink while still holding it: whoever opened this file meanwhile finds it replaced
     try:
-      if self.path.read_text().strip() == str(os.getpid()):
-        self.path.unlink()
+      self.path.unlink()
     except OSError:
       pass
+    os.close(self.fd)
 
 
 def claim(out: pathlib.Path) -> Lock:
@@ -68,23 +73,26 @@ def claim(out: pathlib.Path) -> Lock:
     raise errors.SettingError(f"--out {out} cannot be written ({err.strerror}): give a folder "
                               f"you can write to") from None
   path = out / LOCK
-  for _ in range(2):  # a second try after removing a dead run's lock
+  for _ in range(100):  # again only if the holder released the file between open and lock
+    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
     try:
-      fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    except FileExistsError:
-      try:
-        pid = int(path.read_text().strip() or 0)
-      except (OSError, ValueError):
-        pid = 0
-      if pid and pid != os.getpid() and files.process_alive(pid):
-        raise errors.SettingError(
-            f"--out {out} is in use by another run (process {pid}): give this run another "
-            f"--out, or wait for that one to finish") from None
-      path.unlink(missing_ok=True)  # its run is gone
-      continue
-    with os.fdopen(fd, "w") as f:
-      f.write(str(os.getpid()))
-    return Lock(path)
+      fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+      holder = os.read(fd, 32).decode(errors="replace").strip()
+      os.close(fd)
+      raise errors.SettingError(
+          f"--out {out} is in use by another run"
+          + (f" (process {holder})" if holder.isdigit() else "")
+          + ": give this run another --out, or wait for that one to finish") from None
+    try:
+      current = os.stat(path).st_ino == os.fstat(fd).st_ino
+    except FileNotFoundError:
+      current = False
+    if current:
+      os.ftruncate(fd, 0)
+      os.write(fd, str(os.getpid()).encode())
+      return Lock(path, fd)
+    os.close(fd)
   raise errors.SettingError(f"--out {out}: could not take its lock file {path}; remove it if "
                             f"no run is using the folder")
 

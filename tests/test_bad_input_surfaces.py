@@ -86,3 +86,42 @@ def test_motion_words_the_reader_cannot_run_are_refused_with_their_line(tmp_path
 def test_a_crawling_feed_in_a_csv_path_is_refused(tmp_path):
   with pytest.raises(errors.DataError, match="feed 1e-12 mm/s: allowed at least 0.1"):
     _path(tmp_path, "0,0,0,5\n1,0,0,1e-12\n", ".csv")
+
+
+# --- the --out lock: one holder, however many start at once --------------------------------
+
+def _contend(out, barrier, queue):
+  import time
+  from benchmarks import outputs
+  barrier.wait()
+  try:
+    lock = outputs.claim(out)
+  except errors.SettingError:
+    queue.put(None)
+    return
+  start = time.monotonic()
+  time.sleep(0.02)
+  end = time.monotonic()
+  lock.release()
+  queue.put((start, end))
+
+
+def test_eight_runs_started_at_once_never_share_an_out_folder(tmp_path):
+  import multiprocessing
+  ctx = multiprocessing.get_context("fork")
+  holds = []
+  for round_ in range(25):
+    out = str(tmp_path / f"out{round_ % 3}")  # some rounds find an earlier round's folder
+    barrier, queue = ctx.Barrier(8), ctx.Queue()
+    procs = [ctx.Process(target=_contend, args=(out, barrier, queue)) for _ in range(8)]
+    for p in procs:
+      p.start()
+    got = [queue.get(timeout=60) for _ in procs]
+    for p in procs:
+      p.join()
+    spans = sorted(g for g in got if g is not None)
+    assert spans, "nobody took a free folder"
+    for (s0, e0), (s1, e1) in zip(spans, spans[1:]):
+      assert s1 >= e0, f"round {round_}: two runs held {out} at once"
+    holds.append(len(spans))
+  assert min(holds) >= 1

@@ -251,15 +251,18 @@ def test_out_that_cannot_be_created_fails_at_once(capsys, tmp_path):
 
 
 def test_two_runs_never_share_an_out_folder(capsys, tmp_path):
-  sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+  holder = subprocess.Popen(
+      [sys.executable, "-c", "import sys, time; from benchmarks import outputs; "
+       f"outputs.claim({str(tmp_path / 'out')!r}); print('held', flush=True); time.sleep(30)"],
+      stdout=subprocess.PIPE, text=True)
   try:
-    (tmp_path / "out").mkdir()
-    (tmp_path / "out" / outputs.LOCK).write_text(str(sleeper.pid))
+    assert holder.stdout.readline().strip() == "held"
     err = _one_line_error(capsys, ["shell_table1", "--quick"], tmp_path)
-    assert f"in use by another run (process {sleeper.pid})" in err
+    assert f"in use by another run (process {holder.pid})" in err
   finally:
-    sleeper.kill()
-    sleeper.wait()
+    holder.kill()  # killed: it never releases, its lock file stays
+    holder.wait()
+  assert (tmp_path / "out" / outputs.LOCK).exists()
   lock = outputs.claim(tmp_path / "out")  # its run is gone: the lock is taken over
   assert (tmp_path / "out" / outputs.LOCK).read_text() == str(os.getpid())
   lock.release()
