@@ -39,14 +39,14 @@ def _parser() -> argparse.ArgumentParser:
           line for line in csvfile.__doc__.splitlines() if line.startswith("*")))
   sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
   p = sub.add_parser("fit", help="fit an estimator on a CSV recording")
-  p.add_argument("--csv", required=True, type=pathlib.Path, help="training recording")
+  p.add_argument("--csv", required=True, type=cli.path_arg, help="training recording")
   p.add_argument("--inputs", required=True,
                  help="sensor columns, comma-separated names or globs (e.g. 'p*')")
   p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
   p.add_argument("--method", required=True, type=_method, metavar="{" + ",".join(METHODS) + "}",
                  help="ls: linear least squares; poly: polynomial pseudoinverse; lsann: LS "
                       "plus a network on its residual; nn: the network alone")
-  p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("estimator.npz"),
+  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                  help="where to write the estimator (default estimator.npz)")
   p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
   p.add_argument("--ensemble", type=int, default=1,
@@ -61,20 +61,20 @@ def _parser() -> argparse.ArgumentParser:
   for name, text in (("predict", "apply an estimator to a CSV recording"),
                      ("evaluate", "the papers' metrics and figures on held-out data")):
     p = sub.add_parser(name, help=text)
-    p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
-    p.add_argument("--csv", required=True, type=pathlib.Path, help="the recording")
+    p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
+    p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
     p.add_argument("--time-column", default="time", help="name of the time column (time)")
     if name == "predict":
-      p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("predictions.csv"),
+      p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("predictions.csv"),
                      help="where to write the predictions (default predictions.csv)")
       p.add_argument("--std", action="store_true",
                      help="add a standard deviation column per output (<name>_sd)")
     else:
-      p.add_argument("--out", type=pathlib.Path, default=pathlib.Path("evaluation"),
+      p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
                      help="folder for metrics.csv, metrics.json and figures (evaluation/)")
   p = sub.add_parser("export", help="write the estimator as dependency-free C99")
-  p.add_argument("estimator", type=pathlib.Path, help="an estimator file `fit` wrote")
-  p.add_argument("--c", dest="c_dir", required=True, type=pathlib.Path,
+  p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
+  p.add_argument("--c", dest="c_dir", required=True, type=cli.path_arg,
                  help="folder for estimator.h and estimator.c")
   p = sub.add_parser("example", help="write the example recordings (the simulated footpad)",
                      description="Copies the example recordings shipped with the package: the "
@@ -82,7 +82,7 @@ def _parser() -> argparse.ArgumentParser:
                                  "sample. 'python -m benchmarks.run footpad_dataset --quick' "
                                  "writes them afresh from the simulator, to its results "
                                  "folder's csv/.")
-  p.add_argument("out", type=pathlib.Path, help="folder for train.csv and test.csv")
+  p.add_argument("out", type=cli.path_arg, help="folder for train.csv and test.csv")
   return parser
 
 
@@ -99,6 +99,7 @@ def _list(text: str) -> list[str]:
 
 def fit(args) -> int:
   from calibrate import csvfile, estimators, mlp
+  files.output_file(args.out, "--out", (".npz",))
   table = csvfile.read(args.csv, args.time_column)
   ins = table.columns(_list(args.inputs), "--inputs")
   outs = table.columns(_list(args.targets), "--targets")
@@ -108,14 +109,19 @@ def fit(args) -> int:
   from util.progress import progress_bar
   progress = None if args.no_progress else progress_bar("training")
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
-  est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
-                       table.data[:, outs], config=config, seed=args.seed,
-                       val_fraction=args.val_fraction, degree=args.degree,
-                       ensemble=args.ensemble, progress=progress,
-                       inputs=[table.names[i] for i in ins],
-                       outputs=[table.names[i] for i in outs],
-                       input_units=[table.units[i] or "counts" for i in ins],
-                       output_units=[table.units[i] or "N" for i in outs])
+  try:
+    est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
+                         table.data[:, outs], config=config, seed=args.seed,
+                         val_fraction=args.val_fraction, degree=args.degree,
+                         ensemble=args.ensemble, progress=progress,
+                         inputs=[table.names[i] for i in ins],
+                         outputs=[table.names[i] for i in outs],
+                         input_units=[table.units[i] or "counts" for i in ins],
+                         output_units=[table.units[i] or "N" for i in outs])
+  except errors.DataError as err:  # say which file, and how many rows it gave
+    raise errors.DataError(f"{args.csv}: {len(table.data)} data row(s), "
+                           f"{args.val_fraction:.0%} of them held out for validation: "
+                           f"{err}") from None
   est.save(args.out)
   info = est.info
   print(f"fitted {est.kind.value} on {info.samples} samples of {args.csv} "
@@ -140,6 +146,7 @@ def _inputs(est, table, what: str) -> np.ndarray:
 
 def predict(args) -> int:
   from calibrate import csvfile, estimators
+  files.output_file(args.out, "--out", (".csv",))
   est = estimators.Estimator.load(args.estimator)
   table = csvfile.read(args.csv, args.time_column)
   x = _inputs(est, table, "predict")
@@ -171,6 +178,7 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
 
 def evaluate(args) -> int:
   from calibrate import csvfile, estimators, figures, metrics as metrics_lib
+  out = files.output_folder(args.out, "--out")
   est = estimators.Estimator.load(args.estimator)
   table = csvfile.read(args.csv, args.time_column)
   x = _inputs(est, table, "evaluate")
@@ -185,8 +193,6 @@ def evaluate(args) -> int:
     r = result[n]
     print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
           f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}   RMSE in {u}")
-  out = args.out
-  out.mkdir(parents=True, exist_ok=True)
   metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)
@@ -207,6 +213,7 @@ def evaluate(args) -> int:
 
 def export(args) -> int:
   from calibrate import cexport, estimators
+  files.output_folder(args.c_dir, "--c")
   est = estimators.Estimator.load(args.estimator)
   report = cexport.write(est, args.c_dir)
   print(report.text())
@@ -217,7 +224,7 @@ EXAMPLES = pathlib.Path(__file__).parent / "examples"
 
 
 def example(args) -> int:
-  args.out.mkdir(parents=True, exist_ok=True)
+  files.output_folder(args.out, "the example folder")
   written = []
   for name in ("train.csv", "test.csv"):
     files.write_text(args.out / name, (EXAMPLES / name).read_text())

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+import re
 
 import numpy as np
 
@@ -166,6 +167,30 @@ class _Writer:
         "  }"]
 
 
+def comment_text(name: str) -> str:
+  """A column name as it may stand inside a C block comment: ASCII only (other characters
+  as \\uXXXX escapes), no control characters, and no `*/` or `/*` that would close or nest
+  the comment."""
+  text = "".join(ch if " " <= ch <= "~" else f"\\u{ord(ch):04x}" for ch in str(name))
+  while "*/" in text or "/*" in text:
+    text = text.replace("*/", "* /").replace("/*", "/ *")
+  return text
+
+
+def identifiers(names) -> list[str]:
+  """C identifiers (upper case, [A-Z0-9_]) for column names, unique: characters outside
+  them become `_`, a name that starts with a digit or ends up empty gets a `C` in front,
+  and a name that repeats an earlier one gets its position appended."""
+  out: list[str] = []
+  for k, name in enumerate(names):
+    ident = re.sub(r"[^A-Z0-9_]", "_", str(name).upper()) or "C"
+    ident = "C" + ident if ident[0].isdigit() else ident
+    while ident in out:
+      ident = f"{ident}_{k}"
+    out.append(ident)
+  return out
+
+
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
   from calibrate import estimators
@@ -195,11 +220,15 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       "/* Force estimator exported by the tactile testbench (python -m calibrate export).",
       f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if est.members
                                        else "") + "; float32 weights; C99, <math.h> only.",
-      f" * Inputs (counts): {', '.join(inputs)}.",
-      f" * Outputs: {', '.join(f'{n} ({u})' for n, u in zip(names, units))}. */",
+      f" * Inputs (counts): {', '.join(map(comment_text, inputs))}.",
+      " * Outputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
+                                 for n, u in zip(names, units)) + ". */",
       "#ifndef TESTBENCH_ESTIMATOR_H", "#define TESTBENCH_ESTIMATOR_H", "",
       "#include <stdint.h>", "",
       f"#define ESTIMATOR_INPUTS {c}", f"#define ESTIMATOR_OUTPUTS {a}", "",
+      "/* where each column sits in counts[] and out[] */"]
+      + [f"#define ESTIMATOR_IN_{n} {i}" for i, n in enumerate(identifiers(inputs))]
+      + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
       "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]);",
       "", "#endif", ""])
   source = "\n".join(

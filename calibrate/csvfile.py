@@ -46,6 +46,9 @@ class Table:
     Raises:
       errors.SettingError naming `what` (e.g. "--inputs") and the columns the file has.
     """
+    if not patterns:
+      raise errors.SettingError(f"{what} names no column: give names or globs of "
+                                f"{self.path}'s columns ({', '.join(self.names)})")
     out = []
     for pattern in patterns:
       hits = [i for i, n in enumerate(self.names) if fnmatch.fnmatchcase(n, pattern)]
@@ -67,6 +70,19 @@ def _number(cell: str) -> Optional[float]:
     return None
 
 
+def _check_units_row(path, line: int, names, row: list[str]) -> None:
+  """A second row mostly of words is a units row: a number in it is named as such, not read
+  as data (which would blame the next word)."""
+  words = [c for c in row if c and _number(c) is None]
+  numbers = [k for k, c in enumerate(row) if _number(c) is not None]
+  if numbers and len(words) > len(row) / 2:
+    k = numbers[0]
+    column = names[k] if k < len(names) else f"#{k + 1}"
+    raise errors.DataError(f"{path} line {line}, column {column!r}: {row[k]!r} in what reads "
+                           f"as the units row (its other cells are words): a unit is a word "
+                           f"such as N or counts; leave it empty if there is none")
+
+
 def read(path, time_column: str = "time") -> Table:
   """Reads and checks a CSV file in the layout above.
 
@@ -75,7 +91,7 @@ def read(path, time_column: str = "time") -> Table:
   """
   path = pathlib.Path(path)
   try:
-    text = path.read_text()
+    text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not a name
   except (OSError, UnicodeDecodeError) as err:
     raise errors.DataError(f"{path}: cannot be read ({err})") from None
   physical = text.splitlines()
@@ -93,6 +109,8 @@ def read(path, time_column: str = "time") -> Table:
         f"{path} line {kept[0] + 1}: the first row must name every column, once each "
         f"(got {', '.join(names) or 'nothing'})")
   units, rows = [""] * len(names), kept[1:]
+  if rows:
+    _check_units_row(path, rows[0] + 1, names, cells(rows[0]))
   if rows and all(_number(c) is None for c in cells(rows[0])):
     units = cells(rows[0])
     if len(units) != len(names):

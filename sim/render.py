@@ -25,10 +25,12 @@ from typing import Iterator, Optional
 
 import numpy as np
 
-from util import cli, errors
+from util import cli, errors, files
 
 RIGS = ("footpad", "shell")
+GL_BACKENDS = ("egl", "osmesa", "glfw", "glx")  # MuJoCo's, on Linux
 FPS = 30
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".avi", ".mov")  # what imageio's ffmpeg writer takes
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,8 +48,13 @@ def choose_backend() -> Optional[str]:
   MuJoCo reads MUJOCO_GL when first imported, so call this before that: the command and
   the functions here call it before they import MuJoCo (this module imports it only inside
   them), and importing this module changes nothing."""
-  if os.environ.get("MUJOCO_GL"):
-    return os.environ["MUJOCO_GL"]
+  chosen = os.environ.get("MUJOCO_GL", "").strip().lower()
+  if chosen:
+    if chosen not in GL_BACKENDS:
+      raise errors.SettingError(f"MUJOCO_GL={os.environ['MUJOCO_GL']!r} is not a GL backend "
+                                f"MuJoCo renders offscreen with: allowed {', '.join(GL_BACKENDS)} "
+                                f"(or unset it to let the command choose)")
+    return chosen
   import ctypes.util
   for backend, library in (("egl", "EGL"), ("osmesa", "OSMesa")):
     if ctypes.util.find_library(library):
@@ -215,17 +222,17 @@ def main(argv: Optional[list[str]] = None) -> int:
       "\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter,
       epilog=__doc__.split("\n\n", 2)[2])
   parser.add_argument("rig", choices=RIGS)
-  parser.add_argument("--out", type=pathlib.Path, default=None, help="PNG (default RIG.png)")
+  parser.add_argument("--out", type=cli.path_arg, default=None, help="PNG (default RIG.png)")
   parser.add_argument("--time", type=float, default=None,
                       help="simulated seconds before the picture (default: halfway along the "
                            "footpad's path; 0.25 s of settling for the shell)")
-  parser.add_argument("--video", type=pathlib.Path, default=None,
+  parser.add_argument("--video", type=cli.path_arg, default=None,
                       help=f"also an MP4 of the whole run at {FPS} frames/s")
-  parser.add_argument("--path", default="x_stroke", help="footpad: the paper's path to run")
-  parser.add_argument("--z", type=float, default=1.0, help="footpad: depth, mm (default 1)")
+  parser.add_argument("--path", default=None, help="footpad: the paper's path to run "
+                                                     "(default x_stroke)")
+  parser.add_argument("--z", type=float, default=None, help="footpad: depth, mm (default 1)")
   parser.add_argument("--size", default="640x480", help="image size WxH, px (640x480)")
   args = parser.parse_args(argv)
-  choose_backend()
   return cli.run(lambda: _render(args), "sim.render")
 
 
@@ -234,6 +241,17 @@ def _render(args) -> int:
     width, height = (int(v) for v in args.size.lower().split("x"))
   except ValueError:
     raise errors.SettingError(f"--size {args.size!r} is not WxH (e.g. 640x480)") from None
+  if args.rig == "shell" and (args.path is not None or args.z is not None):
+    raise errors.SettingError("--path and --z choose the footpad's CNC run: the shell settles "
+                              "on its springs (drop them, or render footpad)")
+  args.path = "x_stroke" if args.path is None else args.path
+  args.z = 1.0 if args.z is None else args.z
+  if not (np.isfinite(args.z) and 0.0 <= args.z <= 10.0):
+    raise errors.SettingError(f"--z {args.z:g} is out of range: allowed 0 to 10 mm")
+  out = files.output_file(args.out or pathlib.Path(f"{args.rig}.png"), "--out", (".png",))
+  if args.video is not None:
+    files.output_file(args.video, "--video", VIDEO_SUFFIXES)
+  choose_backend()
   kw = dict(size=(width, height), path=args.path, z=args.z * 1e-3)
   run = rig_run(args.rig, args.path, args.z * 1e-3)
   seconds = run[2]
@@ -242,7 +260,7 @@ def _render(args) -> int:
     raise errors.SettingError(f"--time {t:g} is out of range: allowed 0 to {seconds:g} s "
                               f"for this run")
   (_, image, _), = frames(args.rig, [t], **kw, run=run)
-  out = save_png(image, args.out or pathlib.Path(f"{args.rig}.png"))
+  out = save_png(image, out)
   print(f"wrote {out} ({args.rig} at t = {t:.3f} s)")
   if args.video is not None:
     times = list(np.arange(0.0, seconds, 1.0 / FPS))

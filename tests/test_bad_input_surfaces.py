@@ -125,3 +125,209 @@ def test_eight_runs_started_at_once_never_share_an_out_folder(tmp_path):
       assert s1 >= e0, f"round {round_}: two runs held {out} at once"
     holds.append(len(spans))
   assert min(holds) >= 1
+
+
+# --- generated C takes names only as escaped comments and sanitised identifiers -------------
+
+NASTY_INPUTS = ["p1 */ int injected = 1; /*", 'p2 "quoted"', "p 3 with spaces", "p4 ünï",
+                "p5 /* nested", "5p"]
+NASTY_OUTPUTS = ["F x", "F-x", "Fz */ int also_injected; /*"]
+
+
+def _export_nasty(tmp_path):
+  from calibrate import cexport, estimators
+  rng = np.random.default_rng(0)
+  counts = rng.uniform(500, 3500, (400, 6))
+  forces = counts @ rng.normal(0, 0.01, (6, 3))
+  est = estimators.fit("LS", counts, forces, inputs=NASTY_INPUTS, outputs=NASTY_OUTPUTS,
+                       output_units=["N", "N */ x", "N"])
+  cexport.write(est, tmp_path)
+  return tmp_path / "estimator.h", tmp_path / "estimator.c"
+
+
+def test_column_names_cannot_close_the_generated_comment(tmp_path):
+  header, _ = _export_nasty(tmp_path)
+  text = header.read_text()
+  comment = text[:text.index("*/") + 2]  # the first comment ends where it should
+  assert comment.rstrip().endswith(". */") and "#ifndef" in text[len(comment):]
+  assert text.isascii()
+  defines = re.findall(r"#define ESTIMATOR_(IN|OUT)_(\w+) (\d+)", text)
+  assert [d[1] for d in defines if d[0] == "IN"] == [
+      "P1____INT_INJECTED___1____", "P2__QUOTED_", "P_3_WITH_SPACES", "P4__N_", "P5____NESTED",
+      "C5P"]
+  assert [d[1] for d in defines if d[0] == "OUT"] == ["F_X", "F_X_1",
+                                                      "FZ____INT_ALSO_INJECTED____"]
+
+
+CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+def test_an_export_of_hostile_names_compiles_to_nothing_but_the_estimator(tmp_path):
+  import subprocess
+  header, source = _export_nasty(tmp_path)
+  (tmp_path / "use.c").write_text(
+      '#include "estimator.h"\nint first(void) { return ESTIMATOR_IN_C5P + ESTIMATOR_OUT_F_X_1; }\n')
+  for c in (source, tmp_path / "use.c"):
+    subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", str(c),
+                    "-o", str(c.with_suffix(".o"))], check=True, capture_output=True, text=True)
+  symbols = subprocess.run(["nm", str(source.with_suffix(".o"))], capture_output=True,
+                           text=True, check=True).stdout
+  assert "injected" not in symbols and " T estimate" in symbols
+
+
+# --- every command checks its outputs before the work ---------------------------------------
+
+def _calibrate(capsys, argv, code=2) -> str:
+  from calibrate.__main__ import main
+  assert main(argv) == code
+  captured = capsys.readouterr()
+  err = captured.err.strip()
+  assert "Traceback" not in err
+  if code == 2:
+    assert len(err.splitlines()) == 1 and err.startswith("error:"), err
+  return err if code else captured.out
+
+
+@pytest.fixture
+def csvs(tmp_path, capsys):
+  """The shipped example recordings and an LS estimator of them."""
+  _calibrate(capsys, ["example", str(tmp_path / "ex")], 0)
+  _calibrate(capsys, ["fit", "--csv", str(tmp_path / "ex" / "train.csv"), "--inputs", "p*",
+                      "--targets", "Fx,Fy,Fz", "--method", "ls", "--out",
+                      str(tmp_path / "e.npz")], 0)
+  return tmp_path / "ex", tmp_path / "e.npz"
+
+
+def _fit(csvs, out, method="ls"):
+  return ["fit", "--csv", str(csvs[0] / "train.csv"), "--inputs", "p*", "--targets",
+          "Fx,Fy,Fz", "--method", method, "--no-progress", "--out", str(out)]
+
+
+def test_fit_makes_a_missing_folder_for_its_estimator(csvs, capsys, tmp_path):
+  out = _calibrate(capsys, _fit(csvs, tmp_path / "new" / "deeper" / "e.npz"), 0)
+  assert (tmp_path / "new" / "deeper" / "e.npz").is_file() and "wrote" in out
+
+
+@pytest.mark.parametrize("where, message", [
+    (lambda t: t / "ex" / "train.csv" / "e.npz", "is a file: give a folder"),  # under a file
+    (lambda t: t / "ex", "is a folder: give a file name ending in .npz"),
+    (lambda t: t / "e.bin", "unknown suffix '.bin': allowed .npz"),
+])
+def test_fit_refuses_an_output_it_cannot_write_before_training(csvs, capsys, tmp_path, where,
+                                                               message, monkeypatch):
+  from calibrate import estimators
+
+  def never(*a, **k):
+    raise AssertionError("trained before checking --out")
+  monkeypatch.setattr(estimators, "fit", never)
+  assert message in _calibrate(capsys, _fit(csvs, where(tmp_path), "lsann"))
+
+
+@pytest.mark.parametrize("argv, message", [
+    (lambda ex, est, t: ["predict", str(est), "--csv", str(ex / "test.csv"), "--out", str(t)],
+     "is a folder: give a file name ending in .csv"),
+    (lambda ex, est, t: ["predict", str(est), "--csv", str(ex / "test.csv"), "--out",
+                         str(t / "p.txt")], "unknown suffix '.txt': allowed .csv"),
+    (lambda ex, est, t: ["evaluate", str(est), "--csv", str(ex / "test.csv"), "--out",
+                         str(ex / "test.csv")], "is a file: give a folder"),
+    (lambda ex, est, t: ["export", str(est), "--c", str(ex / "test.csv")], "is a file"),
+    (lambda ex, est, t: ["example", str(ex / "train.csv")], "is a file: give a folder"),
+])
+def test_the_other_calibrate_commands_check_their_outputs_first(csvs, capsys, tmp_path, argv,
+                                                                message):
+  ex, est = csvs
+  assert message in _calibrate(capsys, argv(ex, est, tmp_path))
+
+
+def test_an_empty_out_is_refused_not_read_as_the_current_folder(csvs, capsys, tmp_path):
+  from calibrate.__main__ import main
+  with pytest.raises(SystemExit) as stop:
+    main(["evaluate", str(csvs[1]), "--csv", str(csvs[0] / "test.csv"), "--out", ""])
+  assert stop.value.code == 2 and "an empty path" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["shell", "--path", "asterisk", "--z", "3"], "--path and --z choose the footpad's"),
+    (["footpad", "--out", "{t}"], "is a folder: give a file name ending in .png"),
+    (["footpad", "--out", "{t}/r.txt"], "unknown suffix '.txt': allowed .png"),
+    (["footpad", "--out", "{t}/f.png", "--video", "{t}/f.png/v.mp4"], "is a file: give a folder"),
+    (["footpad", "--out", "{t}/g.png", "--video", "{t}/v.gif"], "unknown suffix '.gif'"),
+    (["footpad", "--z", "nan"], "--z nan is out of range"),
+])
+def test_render_checks_its_options_and_outputs_before_drawing(capsys, tmp_path, argv, message):
+  from sim import render
+  (tmp_path / "f.png").write_text("not a folder")
+  assert render.main([a.replace("{t}", str(tmp_path)) for a in argv]) == 2
+  err = capsys.readouterr().err.strip()
+  assert len(err.splitlines()) == 1 and message in err, err
+
+
+def test_render_refuses_an_unknown_gl_backend_in_one_line(tmp_path):
+  import os
+  import subprocess
+  import sys
+  env = dict(os.environ, MUJOCO_GL="bogus")
+  run = subprocess.run([sys.executable, "-m", "sim.render", "shell", "--out",
+                        str(tmp_path / "s.png")], env=env, capture_output=True, text=True)
+  assert run.returncode == 2 and run.stderr.strip().splitlines() == [
+      "error: MUJOCO_GL='bogus' is not a GL backend MuJoCo renders offscreen with: allowed "
+      "egl, osmesa, glfw, glx (or unset it to let the command choose)"]
+
+
+def test_ctrl_c_in_calibrate_fit_is_one_line_and_exit_130(csvs, tmp_path):
+  import os
+  import signal
+  import subprocess
+  import sys
+  ex, _ = csvs
+  proc = subprocess.Popen([sys.executable, "-m", "calibrate", "fit", "--csv",
+                           str(ex / "train.csv"), "--inputs", "p*", "--targets", "Fx,Fy,Fz",
+                           "--method", "nn", "--epochs", "100000", "--ensemble", "50",
+                           "--out", str(tmp_path / "nn.npz")],
+                          stderr=subprocess.PIPE, text=True, env=dict(os.environ, COLUMNS="80"))
+  seen = ""
+  while "training" not in seen:  # the progress bar: training has begun
+    ch = proc.stderr.read(1)
+    assert ch, "fit ended before training"
+    seen += ch
+  proc.send_signal(signal.SIGINT)
+  err = seen + proc.stderr.read()
+  assert proc.wait(timeout=60) == 130
+  assert "Traceback" not in err and err.strip().splitlines()[-1] == \
+      "interrupted: nothing was written"
+  assert not (tmp_path / "nn.npz").exists()
+
+
+# --- CSV files: what reads silently wrong -----------------------------------------------------
+
+def test_a_byte_order_mark_is_not_part_of_the_first_name(tmp_path):
+  from calibrate import csvfile
+  path = tmp_path / "bom.csv"
+  path.write_bytes("\ufefftime,p1,p2,Fx\n0,1,2,3\n1,2,3,4\n".encode())
+  table = csvfile.read(path)
+  assert table.names == ("time", "p1", "p2", "Fx")
+  assert table.columns(["p*"], "--inputs") == [1, 2] and table.column("time") is not None
+
+
+@pytest.mark.parametrize("inputs", ["", ",", " , "])
+def test_inputs_naming_no_column_are_refused(csvs, capsys, inputs):
+  argv = _fit(csvs, "unused.npz")
+  argv[argv.index("p*")] = inputs
+  assert "--inputs names no column" in _calibrate(capsys, argv)
+
+
+def test_a_number_in_the_units_row_is_named_as_such(tmp_path, capsys):
+  path = tmp_path / "u.csv"
+  path.write_text("time,p1,p2,Fx\ns,counts,1,N\n0,1,2,3\n1,2,3,4\n")
+  err = _calibrate(capsys, ["fit", "--csv", str(path), "--inputs", "p*", "--targets", "Fx",
+                            "--method", "ls", "--out", str(tmp_path / "e.npz")])
+  assert "line 2, column 'p2': '1' in what reads as the units row" in err
+
+
+def test_too_few_rows_name_the_file_and_its_row_count(tmp_path, capsys):
+  path = tmp_path / "one.csv"
+  path.write_text("time,p1,p2,Fx\n0,1,2,3\n")
+  err = _calibrate(capsys, ["fit", "--csv", str(path), "--inputs", "p*", "--targets", "Fx",
+                            "--method", "ls", "--out", str(tmp_path / "e.npz")])
+  assert f"{path}: 1 data row(s), 15% of them held out for validation" in err

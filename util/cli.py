@@ -25,6 +25,15 @@ from util import errors, files
 INTERRUPTED = 130
 
 
+def path_arg(text: str) -> pathlib.Path:
+  """argparse type of a path option: an empty one is refused (pathlib would read it as the
+  current folder)."""
+  if not text.strip():
+    import argparse
+    raise argparse.ArgumentTypeError("an empty path: give a file or folder name")
+  return pathlib.Path(text)
+
+
 def _warning_line(message, category, filename, lineno, line=None) -> str:
   return f"warning: {message}\n"
 

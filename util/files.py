@@ -40,6 +40,50 @@ def atomic_write(path: pathlib.Path, write: Callable) -> None:
   os.replace(f.name, path)
 
 
+def output_folder(path, what: str) -> pathlib.Path:
+  """Checks, before any work, a folder a command will write into: not a file, made if it is
+  missing, and writable (a file is created in it and removed). Returns it.
+
+  Raises:
+    errors.SettingError naming `what` (the option, e.g. "--out") and what to change.
+  """
+  folder = pathlib.Path(path)
+  if str(path).strip() == "":
+    raise errors.SettingError(f"{what} is empty: give a folder")
+  if folder.exists() and not folder.is_dir():
+    raise errors.SettingError(f"{what} {folder} is a file: give a folder")
+  try:
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryFile(dir=folder):
+      pass
+  except OSError as err:
+    raise errors.SettingError(f"{what} {folder} cannot be written ({err.strerror}): give a "
+                              f"folder you can write to") from None
+  return folder
+
+
+def output_file(path, what: str, suffixes: tuple[str, ...]) -> pathlib.Path:
+  """Checks, before any work, a file a command will write: a name ending in one of
+  `suffixes`, not an existing folder, in a folder that exists or can be made and can be
+  written. Returns it (an existing file is replaced when the work is done).
+
+  Raises:
+    errors.SettingError naming `what` and the allowed suffixes.
+  """
+  file = pathlib.Path(path)
+  if str(path).strip() == "" or file.name in ("", ".", ".."):
+    raise errors.SettingError(f"{what} is empty: give a file name ending in "
+                              f"{' or '.join(suffixes)}")
+  if file.is_dir():
+    raise errors.SettingError(f"{what} {file} is a folder: give a file name ending in "
+                              f"{' or '.join(suffixes)}")
+  if file.suffix.lower() not in suffixes:
+    raise errors.SettingError(f"{what} {file}: unknown suffix {file.suffix or '(none)'!r}: "
+                              f"allowed {', '.join(suffixes)}")
+  output_folder(file.parent, f"{what} {file}: its folder")
+  return file
+
+
 def cache_dir() -> pathlib.Path:
   """Root of the on-disk cache: $TESTBENCH_CACHE or ~/.cache/footpad-testbench."""
   root = os.environ.get("TESTBENCH_CACHE")
