@@ -67,6 +67,25 @@ class ExecutorSpec:
   def count(self) -> int:
     return self.workers or os.cpu_count() or 1
 
+  def check(self) -> None:
+    """Refuses, before any work, TLS files that are not readable files, or TLS files without
+    an address to use them on.
+
+    Raises:
+      ExecutorError naming the option.
+    """
+    given = {"--tls-ca-file": self.tls_ca_file, "--tls-cert": self.tls_cert,
+             "--tls-key": self.tls_key}
+    for option, path in given.items():
+      if path is None:
+        continue
+      if self.address is None:
+        raise ExecutorError(f"{option} is for joining a scheduler: add --address "
+                            f"tls://HOST:PORT, or drop it")
+      if not os.path.isfile(path) or not os.access(path, os.R_OK):
+        raise ExecutorError(f"{option} {path}: not a readable file (give the PEM file Dask "
+                            f"should use)")
+
 
 @dataclasses.dataclass(frozen=True)
 class Failure:

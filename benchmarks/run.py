@@ -52,7 +52,7 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                       help="check the command (name, settings, --out) and print the resolved "
                            "settings without running")
   parser.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
-  parser.add_argument("--out", type=pathlib.Path, default=None,
+  parser.add_argument("--out", type=cli.path_arg, default=None,
                       help="results folder (default results/NAME, or results/NAME-quick "
                            "with --quick, so a quick run never overwrites a full one)")
   parser.add_argument("--compare", type=pathlib.Path, default=None, metavar="DIR",
@@ -148,10 +148,14 @@ def _main(argv: Optional[list[str]]) -> int:
   from sim import settings
   overrides = _parse_sets(args.sets)
   applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
+  if hasattr(applied, "validate"):  # what a field's range cannot say (a custom path's file)
+    applied.validate()
   if args.workers is not None and not 1 <= args.workers <= 1024:
     parser.error(f"--workers {args.workers} is out of range: allowed 1 to 1024")
   if args.address and args.executor != "dask":
     parser.error("--address joins a Dask scheduler: add --executor dask")
+  executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
+                         args.tls_cert, args.tls_key).check()
   out = args.out or pathlib.Path("results") / (args.name + ("-quick" if args.quick else ""))
   if args.check:
     for name, value in _resolved(applied, bench.fixed).items():

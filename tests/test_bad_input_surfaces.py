@@ -331,3 +331,59 @@ def test_too_few_rows_name_the_file_and_its_row_count(tmp_path, capsys):
   err = _calibrate(capsys, ["fit", "--csv", str(path), "--inputs", "p*", "--targets", "Fx",
                             "--method", "ls", "--out", str(tmp_path / "e.npz")])
   assert f"{path}: 1 data row(s), 15% of them held out for validation" in err
+
+
+# --- a sweep never crowns a NaN ---------------------------------------------------------------
+
+def _sweep_argv(out, *sets):
+  argv = ["reflector_slope_sweep", "--quick", "--executor", "serial", "--no-progress",
+          "--out", str(out), "--set", "confirm=0", "--set", "search=false"]
+  for s in sets:
+    argv += ["--set", s]
+  return argv
+
+
+def test_a_design_whose_error_is_nan_is_listed_not_ranked(tmp_path, capsys, monkeypatch):
+  import json
+  from benchmarks import run as bench_cli
+  from benchmarks.shell import slope_sweep
+  real = slope_sweep.evaluate
+
+  def nan_at_06(point):
+    r = real(point)
+    if point["design"]["slope_x"] == 0.6:
+      r["median_pct"] = [float("nan")] * 6
+      r["fom"] = float("nan")
+    return r
+  monkeypatch.setattr(slope_sweep, "evaluate", nan_at_06)
+  assert bench_cli.main(_sweep_argv(tmp_path, "sweep.slope_x=0.3,0.6",
+                                    "sweep.slope_y=0.3,0.6")) == 0
+  out = capsys.readouterr().out
+  data = json.loads((tmp_path / "metrics.json").read_text())
+  assert all(r["design"]["slope_x"] == 0.3 for r in data["table"])
+  assert data["best"]["design"]["slope_x"] == 0.3
+  assert sorted(r["design"]["slope_y"] for r in data["unranked"]) == [0.3, 0.6]
+  assert "not a finite number" in data["unranked"][0]["reason"]
+  assert "nan %" not in out and "not ranked: its calibrated error" in out
+  assert f"why it wins: rank {data['best']['rank']}," in out
+
+
+def test_a_grid_that_all_loses_rank_ends_in_one_line(tmp_path, capsys):
+  from benchmarks import run as bench_cli
+  assert bench_cli.main(_sweep_argv(tmp_path, "sweep.slope_x=0", "sweep.slope_y=0,0.3")) == 2
+  err = capsys.readouterr().err.strip()
+  assert len(err.splitlines()) == 1 and "no design of the grid can be ranked" in err
+
+
+def test_a_grid_that_all_fails_ends_in_one_line(tmp_path, capsys, monkeypatch):
+  from benchmarks import run as bench_cli
+  from benchmarks.shell import slope_sweep
+
+  def broken(point):
+    raise ValueError("the static path diverged")
+  monkeypatch.setattr(slope_sweep, "evaluate", broken)
+  assert bench_cli.main(_sweep_argv(tmp_path, "sweep.slope_x=0.3,0.6",
+                                    "sweep.slope_y=0.3")) == 2
+  err = capsys.readouterr().err.strip().splitlines()
+  assert err[-1].startswith("error: every design of the sweep failed (3)")
+  assert "the static path diverged" in err[-1]

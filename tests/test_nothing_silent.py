@@ -333,7 +333,7 @@ def test_metrics_json_is_strict(capsys, tmp_path):
           "--set", "search=false", "--no-progress", "--out", str(tmp_path)]
   assert cli.main(argv) == 0
   metrics = _strict_load((tmp_path / "metrics.json").read_text())
-  assert "Infinity" in [r["fom"] for r in metrics["table"]]  # rank 5 at slope_x = 0
+  assert "Infinity" in [r["fom"] for r in metrics["unranked"]]  # rank 5 at slope_x = 0
 
 
 def test_loaders_refuse_files_that_are_not_theirs(tmp_path):

@@ -28,14 +28,16 @@ def sweep(tmp_path_factory):
 
 
 def test_the_rank_column_reproduces_the_known_cases(sweep):
-  rank = {(r["design"]["slope_x"], r["design"]["slope_y"]): r["rank"] for r in sweep["table"]}
+  rank = {(r["design"]["slope_x"], r["design"]["slope_y"]): r["rank"]
+          for r in sweep["table"] + sweep["unranked"]}
+  assert all(r["rank"] == 6 for r in sweep["table"])  # only full-rank designs are ranked
   assert rank[(0.0, 0.5)] == 5 and rank[(0.5, 0.0)] == 4 and rank[(0.0, 0.0)] == 3
   assert all(v == 6 for (x, y), v in rank.items() if x > 0 and y > 0)
 
 
 def test_the_condition_falls_steeply_then_flattens(sweep):
   cond = {(r["design"]["slope_x"], r["design"]["slope_y"]): r["condition"]
-          for r in sweep["table"]}
+          for r in sweep["table"] + sweep["unranked"]}
   diag = [cond[(c, c)] for c in (0.02, 0.1, 0.5, 1.0)]
   assert diag[0] > 3 * diag[1] > 3 * diag[2]  # steep from small slopes
   assert abs(diag[3] / diag[2] - 1) < 0.3  # then flat

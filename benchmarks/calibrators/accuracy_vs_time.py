@@ -52,6 +52,10 @@ class AccuracyVsTime:
     samples: at most this many training samples for the networks, drawn at random.
   """
   rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
+
+  def relations(self):
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield bool(self.rigs), "rigs", "footpad, shell or both (not none)", self.rigs
   degrees: tuple[int, ...] = setting((1, 2, 3, 4), "[1, 5]", length=(0, 5))
   hidden: tuple[int, ...] = setting((5, 10, 20, 40), "[1, 200]", length=(0, 8))
   epochs: tuple[int, ...] = setting((10, 30, 100, 300), "[1, 5000]", length=(1, 8))

@@ -33,6 +33,10 @@ class EffectAblation:
   """
   rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
 
+  def relations(self):
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield bool(self.rigs), "rigs", "footpad, shell or both (not none)", self.rigs
+
 
 def settings(quick: bool, seed: int) -> EffectAblation:
   return EffectAblation()

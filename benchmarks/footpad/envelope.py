@@ -231,10 +231,15 @@ def _cells(rows: list[dict]) -> dict:
   from sim.footpad import paper as paper_lib
 
   def envelope(values, paper):
-    lo, med, hi = np.min(values), np.median(values), np.max(values)
+    # a design whose metric is not a number has none to give: it is counted, not ranked
+    finite = np.asarray(values, float)[np.isfinite(np.asarray(values, float))]
+    if not finite.size:
+      return {"min": float("nan"), "median": float("nan"), "max": float("nan"),
+              "paper": paper, "paper_inside": None, "designs": 0}
+    lo, med, hi = np.min(finite), np.median(finite), np.max(finite)
     inside = None if paper is None else bool(lo <= paper <= hi)
     return {"min": float(lo), "median": float(med), "max": float(hi), "paper": paper,
-            "paper_inside": inside}
+            "paper_inside": inside, "designs": int(finite.size)}
   cells = {}
   for m in ("LS", "LSANN", "NN"):
     for ax in ("Z", "Y", "X"):
@@ -281,8 +286,14 @@ def _sensitivities(ctx, rows: list[dict], units: np.ndarray) -> dict:
               f"(--set designs=N); {len(rows)} finished")
     return out
   for name, target in targets.items():
-    shares, fit_r2 = sensitivity(units, target)
-    dof = len(rows) - len(ranges()) - 1
+    keep = np.isfinite(target)  # a design with no number for the target cannot weigh in
+    if keep.sum() <= len(ranges()) + 1:
+      ctx.print(f"\nsensitivity of the {name}: {int(keep.sum())} designs with a finite value, "
+                f"too few")
+      continue
+    target = target[keep]
+    shares, fit_r2 = sensitivity(units[keep], target)
+    dof = len(target) - len(ranges()) - 1
     out[name] = {"shares": shares, "linear_fit_r2": fit_r2, "residual_dof": dof}
     ctx.print(f"\nsensitivity of the {name} (range {target.min():.2f}-{target.max():.2f} "
               f"over the designs): share of its variance per parameter (a linear fit over "

@@ -168,22 +168,35 @@ def run(ctx):
             f"executor {ctx.executor.kind}")
   results, failures, grid_seconds = executors.run_designs(ctx, evaluate, points,
                                                           lambda p: p["design"])
-  if results[-1] is None or not any(results[:-1]):
-    raise RuntimeError("the sweep produced no results: see the failures above")
+  _all_failed(failures, len(points))
+  if results[-1] is None:  # its error was printed above; finished designs stay in DIR/points
+    raise errors.SettingError(f"the board's own design {board_design} failed: the sweep "
+                              f"cannot place it (the designs that finished are kept)")
   board_row = dict(results[-1], design=board_design)
-  grid_rows = [dict(r, design=p["design"]) for r, p in zip(results[:-1], points) if r]
+  rows = [dict(r, design=p["design"]) for r, p in zip(results[:-1], points) if r]
+  grid_rows = [r for r in rows if _unranked(r) is None]
+  unranked = [dict(r, reason=_unranked(r)) for r in rows if _unranked(r) is not None]
+  if not grid_rows:
+    raise errors.SettingError(
+        f"no design of the grid can be ranked: {len(unranked)} unranked ("
+        + "; ".join(sorted({r['reason'] for r in unranked}))
+        + f"), {len(failures)} failed: widen the swept ranges (--set sweep.NAME=...)")
+  for r in unranked:
+    ctx.print(f"design {r['design']} not ranked: {r['reason']}")
   order = sorted(range(len(grid_rows)), key=lambda k: (grid_rows[k]["fom"],
                                                        grid_rows[k]["objective"]))
-  place = 1 + sum(r["fom"] < board_row["fom"] for r in grid_rows)
-  best = grid_rows[order[0]]
-  _print_table(ctx, list(axes), [grid_rows[k] for k in order], board_row, place)
-  confirmed, refused, spearman = _confirm(ctx, [grid_rows[k] for k in order])
+  ranked = [grid_rows[k] for k in order]
+  best = ranked[0]
+  place = 1 + sum(r["fom"] < board_row["fom"] for r in grid_rows) \
+      if _unranked(board_row) is None else None
+  _print_table(ctx, list(axes), ranked, board_row, place)
+  confirmed, refused, spearman = _confirm(ctx, ranked)
   search = _search_against_grid(ctx, axes, grid_rows, best["design"]) if settings.search \
       else {"skipped": "search off"}
   _save_grid(ctx, axes, results[:-1], board_design)
   speed = _speed(ctx, len(points), grid_seconds)
   data = {"axes": {n: list(v) for n, v in axes.items()},
-          "table": [grid_rows[k] for k in order], "board": board_row,
+          "table": ranked, "unranked": unranked, "board": board_row,
           "board_place": place, "best": best,
           "figure_of_merit": "mean over axes of calibrated median % error, static path",
           "confirmed": confirmed, "refused_by_full_scene": refused,
@@ -195,6 +208,24 @@ def run(ctx):
   skip = tuple(path + (k,) for path in (("table", "*"), ("board",), ("best",))
                for k in PER_AXIS)
   return outputs.Result(data, tuple(rows + outputs.plain(data, skip=skip)))
+
+
+def _unranked(r: dict) -> Optional[str]:
+  """Why a design cannot be ranked (None if it can): a map of rank < 6, or a figure of merit
+  or objective that is not a finite number."""
+  if r["rank"] < 6:
+    return f"rank {r['rank']} < 6 (lost: {', '.join(r['lost']) or 'a direction'})"
+  if not (np.isfinite(r["fom"]) and np.isfinite(r["objective"])):
+    return "its calibrated error or objective is not a finite number"
+  return None
+
+
+def _all_failed(failures: list, designs: int) -> None:
+  """One line when every design failed (the same settings fail them all)."""
+  if failures and len(failures) == designs:
+    last = failures[0].error.strip().splitlines()[-1] if failures[0].error.strip() else "?"
+    raise errors.SettingError(f"every design of the sweep failed ({designs}); the first: "
+                              f"{last}")
 
 
 def _print_table(ctx, names: list[str], ranked: list[dict], board: dict, place: int) -> None:
@@ -213,7 +244,9 @@ def _print_table(ctx, names: list[str], ranked: list[dict], board: dict, place: 
             f"{_fmt(float(np.mean(r['worst_pct'])), 1, 7)}")
   for i, r in enumerate(ranked[:SHOWN]):
     ctx.print(line(str(i + 1), r))
-  ctx.print(line("brd", board) + f"   <- the board's design: {place} of {len(ranked)}")
+  ctx.print(line("brd", board) + (f"   <- the board's design: {place} of {len(ranked)}"
+                                   if place else f"   <- the board's design: not ranked "
+                                                 f"({_unranked(board)})"))
   best = ranked[0]
   ctx.print(f"\nfigure of merit: mean over the six axes of the calibrated median % error "
             f"(static path); best {best['design']}: {best['fom']:.2f} % against the board's "
@@ -222,7 +255,8 @@ def _print_table(ctx, names: list[str], ranked: list[dict], board: dict, place: 
   def pair(key, scale, count, fmt):
     return ("/".join(f"{v * scale:{fmt}}" for v in best[key][:count]) + " (board " +
             "/".join(f"{v * scale:{fmt}}" for v in board[key][:count]) + ")")
-  why = [f"rank 6, condition {best['condition']:.1f} (board {board['condition']:.1f})",
+  why = [f"rank {best['rank']}, condition {best['condition']:.1f} (board rank "
+         f"{board['rank']}, {board['condition']:.1f})",
          "resolution Fx/Fy/Fz " + pair("resolution", 1e3, 3, ".2f").replace(" (", " mN (", 1),
          "in-window range Fx/Fy " + pair("window_range", 1, 2, ".2f").replace(" (", " N (", 1)
          + f"; paper's half ranges {design.PAPER_RANGE[0] / 2:.2f}/"
@@ -284,7 +318,7 @@ def _search_against_grid(ctx, axes: dict, grid_rows: list[dict], start: dict) ->
   search = _search(ctx, axes, start)
   if "found" not in search:
     return search
-  objs = np.array([r["objective"] for r in grid_rows])
+  objs = np.array([r["objective"] for r in grid_rows])  # ranked rows: finite objectives
   grid_best = grid_rows[int(np.argmin(objs))]["design"]
   # distance in cells: the found value's fractional index along each (sorted) axis
   cells = {n: abs(float(np.interp(search["found"][i], sorted(axes[n]), range(len(axes[n]))))
