@@ -13,7 +13,6 @@ import dataclasses
 import enum
 import pathlib
 import warnings
-import zipfile
 from typing import Optional, Sequence
 
 import numpy as np
@@ -186,12 +185,11 @@ class Estimator:
       errors.DataError naming the file and what is wrong with it.
     """
     path = pathlib.Path(path)
+    arrays = files.read_npz(path, f"estimator {path}", text=("meta",))
     try:
-      with np.load(path) as z:
-        meta = files.from_json(str(z["meta"]))
-        arrays = {k: z[k] for k in z.files if k != "meta"}
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
-      raise errors.DataError(f"estimator {path}: cannot be read ({err})") from None
+      meta = files.from_json(str(arrays.pop("meta")))
+    except (KeyError, ValueError) as err:
+      raise errors.DataError(f"estimator {path}: no readable settings ({err})") from None
     files.check_header(meta, path, "estimator", FORMAT, VERSION, files.array_digest(arrays))
     bad = [k for k, a in arrays.items() if a.dtype.kind == "f" and not np.isfinite(a).all()]
     if bad:

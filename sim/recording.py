@@ -8,11 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import os
 import pathlib
 import warnings
-import zipfile
 from typing import Any, Callable, Optional
 
 import numpy as np
@@ -128,11 +126,7 @@ class Recording:
       raise errors.DataError(f"recording {stem}: cannot be read ({err})") from None
     meta = head.get("meta") if isinstance(head, dict) else None
     files.check_header(head, stem, "recording", FORMAT, VERSION, _digest(data, meta))
-    try:
-      with np.load(io.BytesIO(data)) as z:
-        arrays = {k: z[k] for k in _REQUIRED + _OPTIONAL if k in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
-      raise errors.DataError(f"recording {npz}: cannot be read ({err})") from None
+    arrays = files.read_npz(data, f"recording {npz}", keys=_REQUIRED + _OPTIONAL)
     _check_arrays(npz, arrays)
     return cls(meta=meta, **arrays)
 

@@ -387,3 +387,48 @@ def test_a_grid_that_all_fails_ends_in_one_line(tmp_path, capsys, monkeypatch):
   err = capsys.readouterr().err.strip().splitlines()
   assert err[-1].startswith("error: every design of the sweep failed (3)")
   assert "the static path diverged" in err[-1]
+
+
+# --- loaders check what the arrays hold and how far they expand, before the checksum ------
+
+def _resign_estimator(src, dst, change):
+  """A copy of the estimator file `src` with `change(arrays)` applied and the checksum
+  signed again, as a careless tool would."""
+  from util import files
+  with np.load(src) as z:
+    arrays = {k: z[k] for k in z.files}
+  meta = files.from_json(str(arrays.pop("meta")))
+  change(arrays)
+  meta["sha256"] = files.array_digest(arrays)
+  np.savez(dst, meta=files.json_text(meta), **arrays)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda a: a.__setitem__("linear_coef", a["linear_coef"].astype(str)), "holds <U"),
+    (lambda a: a.__setitem__("linear_bias", np.array(["0.1"] * len(a["linear_bias"]))),
+     "linear_bias holds"),
+])
+def test_an_estimator_whose_arrays_hold_text_is_refused(csvs, tmp_path, capsys, change,
+                                                        message):
+  bad = tmp_path / "bad.npz"
+  _resign_estimator(csvs[1], bad, change)
+  err = _calibrate(capsys, ["predict", str(bad), "--csv", str(csvs[0] / "test.csv"), "--out",
+                            str(tmp_path / "p.csv")])
+  assert message in err and "expected numbers" in err
+
+
+def test_a_recording_that_expands_far_beyond_its_file_is_refused_unread(tmp_path):
+  import json
+  from sim import recording
+  from sim.shell import scene as shell
+  rec, _ = shell.generate(shell.ShellScene(frames=300, seed=1), use_cache=False)
+  rec.save(tmp_path / "r")
+  with np.load(tmp_path / "r.npz") as z:
+    arrays = {k: z[k] for k in z.files}
+  arrays["counts"] = np.zeros((2_000_000, 8))  # 128 MB of zeros, a few hundred kB zipped
+  np.savez_compressed(tmp_path / "r.npz", **arrays)
+  head = json.loads((tmp_path / "r.json").read_text())
+  head["sha256"] = recording._digest((tmp_path / "r.npz").read_bytes(), head["meta"])
+  (tmp_path / "r.json").write_text(json.dumps(head))
+  with pytest.raises(errors.DataError, match="expand to 1[0-9]{2} MiB from a 0.[0-9] MiB file"):
+    recording.Recording.load(tmp_path / "r")

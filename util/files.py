@@ -84,6 +84,54 @@ def output_file(path, what: str, suffixes: tuple[str, ...]) -> pathlib.Path:
   return file
 
 
+EXPANSION = 4.0  # the testbench writes .npz uncompressed: a file of its own never expands more
+
+
+def read_npz(source, what: str, keys=None, text: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+  """The arrays of an .npz file (a path or its bytes), checked from their headers before any
+  is read: each a numeric array (bool, integer, float; the members named in `text` may be
+  strings), and all of them, expanded, at most `EXPANSION` times the file's size plus 1 MiB.
+  A checksum says a file is unchanged, not that it is sane to read.
+
+  Raises:
+    errors.DataError naming `what` and the member at fault.
+  """
+  import io
+  import zipfile
+  raw = source if isinstance(source, bytes) else None
+  try:
+    size = len(raw) if raw is not None else os.path.getsize(source)
+    with zipfile.ZipFile(io.BytesIO(raw) if raw is not None else source) as zf:
+      members = [i for i in zf.infolist()
+                 if keys is None or i.filename.removesuffix(".npy") in keys]
+      total = 0
+      for info in members:
+        name = info.filename.removesuffix(".npy")
+        with zf.open(info) as f:
+          version = np.lib.format.read_magic(f)
+          read_header = {(1, 0): np.lib.format.read_array_header_1_0,
+                         (2, 0): np.lib.format.read_array_header_2_0}.get(version)
+          if read_header is None:
+            raise errors.DataError(f"{what}: array {name} has .npy format {version}, which "
+                                   f"the testbench does not write")
+          shape, _, dtype = read_header(f)
+        if not (dtype.kind in "biuf" or (name in text and dtype.kind == "U")):
+          raise errors.DataError(f"{what}: array {name} holds {dtype} values; expected "
+                                 f"numbers")
+        total += int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+      if total > EXPANSION * size + 2**20:
+        raise errors.DataError(f"{what}: its arrays expand to {total / 2**20:.0f} MiB from a "
+                               f"{size / 2**20:.1f} MiB file; the testbench writes them "
+                               f"uncompressed, so this file is not one of its own")
+      with np.load(io.BytesIO(raw) if raw is not None else source, allow_pickle=False) as z:
+        return {i.filename.removesuffix(".npy"): z[i.filename.removesuffix(".npy")]
+                for i in members}
+  except errors.DataError:
+    raise
+  except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
+    raise errors.DataError(f"{what}: cannot be read ({err})") from None
+
+
 def cache_dir() -> pathlib.Path:
   """Root of the on-disk cache: $TESTBENCH_CACHE or ~/.cache/footpad-testbench."""
   root = os.environ.get("TESTBENCH_CACHE")
