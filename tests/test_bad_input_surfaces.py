@@ -432,3 +432,55 @@ def test_a_recording_that_expands_far_beyond_its_file_is_refused_unread(tmp_path
   (tmp_path / "r.json").write_text(json.dumps(head))
   with pytest.raises(errors.DataError, match="expand to 1[0-9]{2} MiB from a 0.[0-9] MiB file"):
     recording.Recording.load(tmp_path / "r")
+
+
+# --- one error path: the benchmark command's checks before any work ---------------------------
+
+def _bench_error(capsys, argv) -> str:
+  from benchmarks import run as bench_cli
+  assert bench_cli.main(argv) == 2
+  err = capsys.readouterr().err.strip()
+  assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+  return err
+
+
+def test_tracebacks_of_one_second_never_overwrite_each_other(tmp_path, monkeypatch):
+  from util import cli
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
+  paths = {cli.traceback_path("calibrate") for _ in range(50)}
+  assert len(paths) == 50 and all(p.exists() for p in paths)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["reflector_slope_sweep", "--quick", "--executor", "dask", "--address",
+      "tls://127.0.0.1:1", "--tls-ca-file", "/no/such/ca.pem", "--check"],
+     "--tls-ca-file /no/such/ca.pem: not a readable file"),
+    (["reflector_slope_sweep", "--quick", "--executor", "dask", "--tls-cert", __file__,
+      "--check"], "--tls-cert is for joining a scheduler: add --address"),
+    (["asterisk_path", "--quick", "--check", "--set", "custom_path=/no/such/path.csv"],
+     "custom_path='/no/such/path.csv' is not a file"),
+    (["effect_ablation", "--quick", "--check", "--set", "rigs="],
+     "rigs=() is out of range: allowed footpad, shell or both (not none)"),
+    (["accuracy_vs_time", "--quick", "--check", "--set", "rigs="], "rigs=() is out of range"),
+])
+def test_the_benchmark_command_refuses_these_before_any_work(capsys, argv, message):
+  assert message in _bench_error(capsys, argv)
+
+
+def test_a_custom_path_with_a_crawling_feed_is_one_line_not_an_internal_error(capsys, tmp_path):
+  path = tmp_path / "slow.gcode"
+  path.write_text("G1 Z-0.5 F60\nG1 X1 F0.00000000006\n")
+  err = _bench_error(capsys, ["asterisk_path", "--quick", "--check", "--set",
+                              f"custom_path={path}"])
+  assert "allowed at least 0.1 mm/s" in err
+
+
+def test_predict_keeps_the_time_column_of_a_file_with_a_byte_order_mark(csvs, capsys, tmp_path):
+  from calibrate import csvfile
+  ex, est = csvs
+  bom = tmp_path / "bom.csv"
+  bom.write_bytes(b"\xef\xbb\xbf" + (ex / "test.csv").read_bytes())
+  _calibrate(capsys, ["predict", str(est), "--csv", str(bom), "--out", str(tmp_path / "p.csv")],
+             0)
+  out = csvfile.read(tmp_path / "p.csv")
+  assert out.names[0] == "time" and len(out.data) == len(csvfile.read(ex / "test.csv").data)
