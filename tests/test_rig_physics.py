@@ -91,6 +91,7 @@ def test_element_stiffness_sums_to_EA_over_h():
   assert k[:, 0].sum() == pytest.approx(P.shear_modulus * area / P.thickness, rel=1e-12)
 
 
+@pytest.mark.slow  # ~7 s per axis: a long hold in MuJoCo
 @pytest.mark.parametrize("axis", [2, 0])
 def test_viscoelastic_relaxes_as_its_prony_series(axis):
   """Held at a fixed press (axis 2) or a press plus a sideways hold (axis 0), the plate force
