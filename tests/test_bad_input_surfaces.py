@@ -467,12 +467,19 @@ def test_the_benchmark_command_refuses_these_before_any_work(capsys, argv, messa
   assert message in _bench_error(capsys, argv)
 
 
-def test_a_custom_path_with_a_crawling_feed_is_one_line_not_an_internal_error(capsys, tmp_path):
-  path = tmp_path / "slow.gcode"
-  path.write_text("G1 Z-0.5 F60\nG1 X1 F0.00000000006\n")
+@pytest.mark.parametrize("text, message", [
+    ("G1 Z-0.5 F60\nG1 X1 F0.00000000006\n", "allowed at least 0.1 mm/s"),
+    ("G1 Z-0.5 F60\nG2 X1 Y1 R1\n", "line 2: an arc needs its centre as I, J"),
+    ("G28\nG1 X1 F60\n", "line 1: G28 is not supported"),
+    ("G20\nG1 X1 F60\n", "line 1: G20 (inches) is not supported"),
+])
+def test_a_custom_path_the_rig_cannot_run_is_one_line_before_any_work(capsys, tmp_path, text,
+                                                                      message):
+  path = tmp_path / "p.gcode"
+  path.write_text(text)
   err = _bench_error(capsys, ["asterisk_path", "--quick", "--check", "--set",
                               f"custom_path={path}"])
-  assert "allowed at least 0.1 mm/s" in err
+  assert message in err and str(path) in err
 
 
 def test_predict_keeps_the_time_column_of_a_file_with_a_byte_order_mark(csvs, capsys, tmp_path):
