@@ -23,6 +23,7 @@ from typing import Optional
 
 import numpy as np
 
+from calibrate import splits as splits_lib
 from util import cli, errors, files
 
 METHODS = ("ls", "poly", "lsann", "nn")
@@ -38,8 +39,23 @@ def _parser() -> argparse.ArgumentParser:
       epilog="CSV layout:\n" + "\n".join(
           line for line in csvfile.__doc__.splitlines() if line.startswith("*")))
   sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-  p = sub.add_parser("fit", help="fit an estimator on a CSV recording")
-  p.add_argument("--csv", required=True, type=cli.path_arg, help="training recording")
+  p = sub.add_parser("fit", help="fit an estimator on CSV recordings")
+  p.add_argument("--csv", required=True, type=cli.path_arg, nargs="+",
+                 help="training recordings: one or more files or globs ('runs/*.csv'); each "
+                      "file is a recording, held out whole by the default split")
+  p.add_argument("--group", default=None,
+                 help="a column whose value tells recordings apart within a file (e.g. a "
+                      "trial number); with several files, groups are per file and value")
+  p.add_argument("--split", default="auto", choices=splits_lib.HOW,
+                 help="what validation holds out: auto (whole recordings where there are "
+                      "several, else contiguous blocks as long as the inputs' "
+                      "autocorrelation), recordings, blocks, or samples (single samples at "
+                      "random, the LSANN paper's: flatters every method)")
+  p.add_argument("--folds", type=int, default=5,
+                 help="grouped cross-validation folds for the held-out error and the "
+                      "interval (default 5; 0: none, and no interval)")
+  p.add_argument("--level", type=float, default=0.95,
+                 help="interval level to report (default 0.95; predict --interval takes any)")
   p.add_argument("--inputs", required=True,
                  help="sensor columns, comma-separated names or globs (e.g. 'p*')")
   p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
@@ -69,9 +85,14 @@ def _parser() -> argparse.ArgumentParser:
                      help="where to write the predictions (default predictions.csv)")
       p.add_argument("--std", action="store_true",
                      help="add a standard deviation column per output (<name>_sd)")
+      p.add_argument("--interval", type=float, default=None, metavar="LEVEL",
+                     help="add the split-conformal interval at LEVEL (e.g. 0.95) as "
+                          "<name>_lo and <name>_hi columns (from fit's held-out groups)")
     else:
       p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
                      help="folder for metrics.csv, metrics.json and figures (evaluation/)")
+      p.add_argument("--level", type=float, default=0.95,
+                     help="the interval level whose coverage to report (default 0.95)")
   p = sub.add_parser("export", help="write the estimator as dependency-free C99")
   p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
   p.add_argument("--c", dest="c_dir", required=True, type=cli.path_arg,
@@ -100,40 +121,82 @@ def _list(text: str) -> list[str]:
 def fit(args) -> int:
   from calibrate import csvfile, estimators, mlp
   files.output_file(args.out, "--out", (".npz",))
-  table = csvfile.read(args.csv, args.time_column)
+  if not 0 <= args.folds <= 20:
+    raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
+  if not 0.5 <= args.level <= 0.999:
+    raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
+  table, recording = csvfile.read_many(args.csv, args.time_column)
   ins = table.columns(_list(args.inputs), "--inputs")
   outs = table.columns(_list(args.targets), "--targets")
   if set(ins) & set(outs):
     raise errors.SettingError("--inputs and --targets share columns: "
                               + ", ".join(table.names[i] for i in set(ins) & set(outs)))
+  if args.group is not None:
+    (g,) = table.columns([args.group], "--group")
+    if g in ins or g in outs:
+      raise errors.SettingError(f"--group {args.group} is also an input or a target")
+    recording = recording * (1 + int(np.abs(table.data[:, g]).max())) + table.data[:, g]
+  x, y = table.data[:, ins], table.data[:, outs]
+  try:
+    groups = splits_lib.groups(len(x), args.split, recording, x)
+  except errors.SettingError as err:  # too few rows or recordings: say which file
+    raise errors.DataError(f"{table.path}: {len(table.data)} data row(s) in {recording.max() + 1} "
+                           f"recording(s), --split {args.split}: {err}") from None
   from util.progress import progress_bar
   progress = None if args.no_progress else progress_bar("training")
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
   try:
-    est = estimators.fit(estimators.Kind(args.method.upper()), table.data[:, ins],
-                         table.data[:, outs], config=config, seed=args.seed,
-                         val_fraction=args.val_fraction, degree=args.degree,
+    est = estimators.fit(estimators.Kind(args.method.upper()), x, y, config=config,
+                         seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
                          ensemble=args.ensemble, progress=progress,
                          inputs=[table.names[i] for i in ins],
                          outputs=[table.names[i] for i in outs],
                          input_units=[table.units[i] or "counts" for i in ins],
-                         output_units=[table.units[i] or "N" for i in outs])
+                         output_units=[table.units[i] or "N" for i in outs],
+                         groups=groups, folds=args.folds if groups.count >= 2 else 0)
   except errors.DataError as err:  # say which file, and how many rows it gave
-    raise errors.DataError(f"{args.csv}: {len(table.data)} data row(s), "
+    raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
                            f"{args.val_fraction:.0%} of them held out for validation: "
                            f"{err}") from None
   est.save(args.out)
-  info = est.info
-  print(f"fitted {est.kind.value} on {info.samples} samples of {args.csv} "
-        f"({len(ins)} inputs -> {', '.join(info.outputs)}); validation residual sd "
-        + ", ".join(f"{n} {v:.4g} {u}" for n, v, u in
-                    zip(info.outputs, info.residual_sd, info.output_units)))
-  stops = [m.training for m in (est.members or (est,)) if m.training is not None]
-  if stops:
-    print("training stopped: " + "; ".join(
-        f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
+  _report_fit(est, table, args, y, groups)
   print(f"wrote {args.out}")
   return 0
+
+
+def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
+  """What `fit` prints: the data, the split, the held-out error and the interval."""
+  info = est.info
+  units = info.output_units
+  print(f"fitted {est.kind.value} on {info.samples} samples of {table.path} "
+        f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
+  v = info.validation
+  print(f"validation: {groups.describe()}")
+  if v:
+    print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
+        f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
+    half = info.half_width(args.level)
+    scale = np.abs(y).max(axis=0)
+    print(f"{args.level:.0%} interval (split-conformal on held-out groups): " + ", ".join(
+        f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
+        f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
+    if v.get("ls_only"):
+      print(f"LSANN keeps only its LS stage on {', '.join(v['ls_only'])}: its network did not "
+            f"beat the LS stage on held-out groups there")
+  else:
+    print("no cross-validation (--folds 0, or a single group): no interval; the validation "
+          "residual sd " + ", ".join(f"{n} {s:.4g} {u}" for n, s, u in
+                                     zip(info.outputs, info.residual_sd, units)))
+  stops = [m.training for m in (est.members or (est,)) if m.training is not None]
+  if len(stops) > 3:  # an ensemble: the spread, not a line per network
+    why = sorted({t.stop.value for t in stops})
+    epochs = np.array([t.epochs for t in stops])
+    print(f"training stopped: {len(stops)} networks ({'; '.join(why)}), after "
+          f"{epochs.min()}-{epochs.max()} epochs (median {np.median(epochs):.0f}), "
+          f"{sum(t.seconds for t in stops):.1f} s in all")
+  elif stops:
+    print("training stopped: " + "; ".join(
+        f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
 
 
 def _inputs(est, table, what: str) -> np.ndarray:
@@ -148,14 +211,22 @@ def predict(args) -> int:
   from calibrate import csvfile, estimators
   files.output_file(args.out, "--out", (".csv",))
   est = estimators.Estimator.load(args.estimator)
+  if args.interval is not None:
+    est.info.half_width(args.interval)  # a level out of range, or no interval: say so first
   table = csvfile.read(args.csv, args.time_column)
   x = _inputs(est, table, "predict")
   pred, sd = est.predict(x, return_std=True)
   names, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
+  a = len(est.info.outputs)
   if args.std:
     names += [f"{n}_sd" for n in est.info.outputs]
-    units += units[:len(est.info.outputs)]
+    units += units[:a]
     cols.append(sd)
+  if args.interval is not None:
+    half = est.info.half_width(args.interval)
+    names += [f"{n}_{end}" for end in ("lo", "hi") for n in est.info.outputs]
+    units += units[:a] * 2
+    cols += [pred - half, pred + half]
   t = table.column(args.time_column)
   if t is not None:
     names, units, cols = [args.time_column] + names, ["s"] + units, [t[:, None]] + cols
@@ -179,6 +250,8 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
 def evaluate(args) -> int:
   from calibrate import csvfile, estimators, figures, metrics as metrics_lib
   out = files.output_folder(args.out, "--out")
+  if not 0.5 <= args.level <= 0.999:
+    raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
   est = estimators.Estimator.load(args.estimator)
   table = csvfile.read(args.csv, args.time_column)
   x = _inputs(est, table, "evaluate")
@@ -186,13 +259,30 @@ def evaluate(args) -> int:
   pred = est.predict(x)
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)
+  info = est.info
+  if info.interval_abs is not None:  # the interval fit promised, against what it covers here
+    half = info.half_width(args.level)
+    inside = np.abs(truth - pred) <= half
+    for j, n in enumerate(names):
+      result[n]["interval_half_width"] = float(half[j])
+      result[n]["interval_coverage_pct"] = float(100 * inside[:, j].mean())
+  if info.output_lo is not None:  # truth beyond what the fit saw: every method under-reaches
+    beyond = (truth < info.output_lo) | (truth > info.output_hi)
+    for j, n in enumerate(names):
+      result[n]["truth_outside_training_pct"] = float(100 * beyond[:, j].mean())
   print(f"{est.kind.value} on {len(x)} samples of {args.csv}")
+  cover = info.interval_abs is not None
   print(f"{'output':8s} {'RMSE':>10s} {'NRMSE %':>8s} {'R2 %':>8s} {'median %':>9s} "
-        f"{'worst %':>8s}")
+        f"{'worst %':>8s}" + (f" {f'in {args.level:.0%} int.':>12s}" if cover else "")
+        + f" {'truth beyond fit %':>18s}")
   for n, u in zip(names, units):
     r = result[n]
     print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
-          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}   RMSE in {u}")
+          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}"
+          + (f" {r['interval_coverage_pct']:11.1f}%" if cover else "")
+          + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
+  if not cover:
+    print("no interval: the estimator was fitted without grouped cross-validation")
   metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)

@@ -6,6 +6,8 @@ The layout (`python -m calibrate --help` prints it):
 * optionally line 2: units, one per column (`s,counts,...,N`): a row with no number in it;
 * then one row per sample, every cell a number; lines starting with `#` are comments;
 * a time column (by default the one named `time`), when present, must increase.
+* several files (recordings) may be given together: the same columns in each; the time may
+  start again in every file.
 
 Every problem is one `errors.DataError` naming the file, the line and the column: a missing
 column, an empty cell, NaN or inf, text where a number belongs, time going backwards.
@@ -61,6 +63,37 @@ class Table:
 
   def column(self, name: str) -> Optional[np.ndarray]:
     return self.data[:, self.names.index(name)] if name in self.names else None
+
+
+def read_many(paths: Sequence, time_column: str = "time") -> tuple[Table, np.ndarray]:
+  """Reads several recordings with the same columns as one table, and (N,) the index of the
+  file each row came from (a path holding *, ? or [ is a glob, expanded in sorted order).
+
+  Raises:
+    errors.DataError naming the file that matches nothing or whose columns differ.
+  """
+  import glob
+  expanded = []
+  for p in paths:
+    text = str(p)
+    if any(ch in text for ch in "*?[") and not pathlib.Path(text).exists():
+      hits = sorted(glob.glob(text))
+      if not hits:
+        raise errors.DataError(f"--csv {text}: no file matches")
+      expanded += hits
+    else:
+      expanded.append(text)
+  expanded = list(dict.fromkeys(expanded))  # a file named twice is one recording
+  tables = [read(p, time_column) for p in expanded]
+  first = tables[0]
+  for t in tables[1:]:
+    if t.names != first.names:
+      raise errors.DataError(f"{t.path}: its columns ({', '.join(t.names)}) differ from "
+                             f"{first.path}'s ({', '.join(first.names)}): recordings fitted "
+                             f"together need the same columns")
+  labels = np.concatenate([np.full(len(t.data), k) for k, t in enumerate(tables)])
+  path = first.path if len(tables) == 1 else f"{len(tables)} recordings ({first.path}, ...)"
+  return Table(first.names, first.units, np.vstack([t.data for t in tables]), path), labels
 
 
 def _number(cell: str) -> Optional[float]:

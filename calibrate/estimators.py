@@ -17,7 +17,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from calibrate import linear, mlp
+from calibrate import linear, mlp, splits
 from util import errors, files
 
 
@@ -45,6 +45,15 @@ class Info:
     samples: training samples.
     data_sha256: SHA-256 of the training inputs and targets (float64 bytes).
     settings: the method and its settings (JSON-able).
+    interval_abs: (P, A) quantiles, at the probabilities `INTERVAL_GRID`, of the absolute
+      residual on held-out groups (grouped cross-validation), output units; None when the
+      fit ran no cross-validation. `half_width` turns it into a split-conformal interval.
+    interval_n: the held-out samples behind `interval_abs`.
+    validation: how the held-out data were chosen and what they gave (JSON-able): the split,
+      its groups, the folds, the cross-validated RMSE per output, outputs where LSANN kept
+      only its LS stage.
+    output_lo, output_hi: (A,) the training range of every output (None in older files):
+      truth beyond it is target extrapolation, where every method under-reaches.
   """
   inputs: tuple[str, ...]
   outputs: tuple[str, ...]
@@ -56,27 +65,63 @@ class Info:
   samples: int
   data_sha256: str
   settings: dict
+  interval_abs: Optional[np.ndarray] = None
+  interval_n: int = 0
+  validation: dict = dataclasses.field(default_factory=dict)
+  output_lo: Optional[np.ndarray] = None
+  output_hi: Optional[np.ndarray] = None
+
+  def half_width(self, level: float) -> np.ndarray:
+    """(A,) half-width of the split-conformal interval at `level` (0.5 to 0.999): the
+    ceil((n + 1) level)-th smallest of the n held-out absolute residuals, per output.
+
+    Raises:
+      errors.DataError when the estimator was fitted without cross-validation.
+    """
+    if self.interval_abs is None:
+      raise errors.DataError("the estimator holds no interval (fitted without grouped "
+                             "cross-validation): fit it again with this version's `fit`")
+    if not 0.5 <= level <= 0.999:
+      raise errors.SettingError(f"interval level {level!r} is out of range: allowed 0.5 to "
+                                f"0.999")
+    p = min(1.0, np.ceil((self.interval_n + 1) * level) / self.interval_n)
+    return np.array([np.interp(p, INTERVAL_GRID, q) for q in self.interval_abs.T])
 
   def to_json(self) -> dict:
     return {"inputs": list(self.inputs), "outputs": list(self.outputs),
             "input_units": list(self.input_units), "output_units": list(self.output_units),
-            "samples": self.samples, "data_sha256": self.data_sha256, "settings": self.settings}
+            "samples": self.samples, "data_sha256": self.data_sha256, "settings": self.settings,
+            "interval_n": self.interval_n, "validation": self.validation}
 
   def arrays(self) -> dict[str, np.ndarray]:
-    return {"info_input_lo": self.input_lo, "info_input_hi": self.input_hi,
-            "info_residual_sd": self.residual_sd}
+    out = {"info_input_lo": self.input_lo, "info_input_hi": self.input_hi,
+           "info_residual_sd": self.residual_sd}
+    if self.interval_abs is not None:
+      out["info_interval_abs"] = self.interval_abs
+    if self.output_lo is not None:
+      out.update(info_output_lo=self.output_lo, info_output_hi=self.output_hi)
+    return out
 
   @staticmethod
   def from_saved(head: dict, arrays: dict[str, np.ndarray]) -> "Info":
     info = Info(tuple(head["inputs"]), tuple(head["outputs"]), tuple(head["input_units"]),
                 tuple(head["output_units"]), arrays["info_input_lo"], arrays["info_input_hi"],
                 arrays["info_residual_sd"], int(head["samples"]), str(head["data_sha256"]),
-                dict(head["settings"]))
+                dict(head["settings"]), arrays.get("info_interval_abs"),
+                int(head.get("interval_n", 0)), dict(head.get("validation", {})),
+                arrays.get("info_output_lo"), arrays.get("info_output_hi"))
     c, a = len(info.inputs), len(info.outputs)
     if (len(info.input_units), info.input_lo.shape, info.input_hi.shape) != (c, (c,), (c,)) or \
        (len(info.output_units), info.residual_sd.shape) != (a, (a,)):
       raise ValueError("its names, units and ranges do not fit together")
+    if info.interval_abs is not None and (info.interval_abs.shape != (len(INTERVAL_GRID), a)
+                                          or info.interval_n < 1):
+      raise ValueError("its interval does not fit its outputs")
     return info
+
+
+# probabilities at which an estimator keeps its held-out absolute residuals' quantiles
+INTERVAL_GRID = np.linspace(0.0, 1.0, 1001)
 
 
 def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
@@ -268,7 +313,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         val_block: Optional[int] = None, ensemble: int = 1,
         inputs: Optional[Sequence[str]] = None, outputs: Optional[Sequence[str]] = None,
         input_units: Optional[Sequence[str]] = None,
-        output_units: Optional[Sequence[str]] = None) -> Estimator:
+        output_units: Optional[Sequence[str]] = None,
+        groups: Optional[splits.Groups] = None, folds: int = 0) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -282,11 +328,17 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     degree: the polynomial degree of POLY (the shell paper's cubic: 3).
     snapshots: epoch caps to keep the best net at (`at_epoch_cap`).
     val_block: hold out contiguous blocks of this many samples for validation instead of
-      single samples (`split_validation`).
+      single samples (`split_validation`); ignored when `groups` is given.
     ensemble: networks trained from this many seeds (spawned from `seed`); the estimator
       predicts their mean and `predict(return_std=True)` their spread.
     inputs, outputs, input_units, output_units: names and units kept in `Info` (default
       in0.., out0.., "counts", "N").
+    groups: the samples' groups (`calibrate.splits`): validation then holds out whole groups
+      (recordings or time blocks), never single samples between training ones.
+    folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
+      its held-out residuals size the estimator's interval (`Info.half_width`) and its
+      RMSE per output is kept; an LSANN output whose network does not beat its LS stage
+      there keeps the LS stage alone (said in `Info.validation["ls_only"]`). 0: none.
   """
   kind = Kind(kind)
   counts, forces = linear.check_pair(counts, forces)
@@ -297,6 +349,11 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
                               f"seeds would agree; an ensemble is for LSANN and NN")
   if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2 ** 63):
     raise errors.SettingError(f"seed={seed!r} is out of range: allowed integers >= 0")
+  if folds and groups is None:
+    raise errors.SettingError("folds need groups (calibrate.splits.groups): cross-validation "
+                              "over single samples would flatter every method")
+  if groups is not None and len(groups.labels) != len(counts):
+    raise errors.SettingError(f"groups: {len(groups.labels)} labels for {len(counts)} samples")
   c, a = counts.shape[1], forces.shape[1]
   names = {"inputs": (inputs, [f"in{i}" for i in range(c)], c),
            "outputs": (outputs, [f"out{i}" for i in range(a)], a),
@@ -309,38 +366,103 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       raise errors.SettingError(f"{key}: {len(value)} names for {n} columns")
     given[key] = tuple(str(v) for v in value)
   settings = {"method": kind.value, "val_fraction": val_fraction, "seed": seed,
-              "val_block": val_block}
+              "val_block": None if groups is not None else val_block}
+  if groups is not None:
+    settings.update(split=groups.how, groups=groups.count, block=groups.block)
   if kind is Kind.POLY:
     settings["degree"] = degree
   if kind in (Kind.LSANN, Kind.NN):
     settings.update(config=dataclasses.asdict(config), ensemble=ensemble)
 
-  def info(residual_sd: np.ndarray) -> Info:
-    return Info(input_lo=counts.min(axis=0), input_hi=counts.max(axis=0),
-                residual_sd=np.asarray(residual_sd, float), samples=len(counts),
-                data_sha256=data_digest(counts, forces), settings=settings, **given)
+  def split(n_or_groups, member_seed):
+    if isinstance(n_or_groups, splits.Groups):
+      return splits.holdout(n_or_groups, val_fraction, member_seed)
+    return split_validation(n_or_groups, val_fraction, member_seed, val_block)
 
-  if kind in (Kind.LS, Kind.POLY):
-    d = degree if kind is Kind.POLY else 1
-    tr, va = split_validation(len(counts), val_fraction, seed, val_block)
-    held = linear.fit_linear(counts[tr], forces[tr], degree=d)
-    sd = np.std(forces[va] - held.predict(counts[va]), axis=0)
-    return Estimator(kind, linear.fit_linear(counts, forces, degree=d), info=info(sd))
-  lin = None
-  targets = forces
+  def one_fit(x, y, where, lin_given, fold_progress):
+    """(estimator without info, held-out residual sd) fitted on x, y."""
+    if kind in (Kind.LS, Kind.POLY):
+      d = degree if kind is Kind.POLY else 1
+      tr, va = split(where, seed)
+      held = linear.fit_linear(x[tr], y[tr], degree=d)
+      sd = np.std(y[va] - held.predict(x[va]), axis=0)
+      return [Estimator(kind, linear.fit_linear(x, y, degree=d))], [sd]
+    lin = None
+    targets = y
+    if kind is Kind.LSANN:
+      lin = lin_given or linear.fit_linear(x, y)
+      targets = y - lin.predict(x)
+    seeds = [seed] if ensemble == 1 else [
+        int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(ensemble)]
+    members, sds = [], []
+    for member_seed in seeds:
+      tr, va = split(where, member_seed)
+      res = mlp.train(x[tr], targets[tr], x[va], targets[va], config, member_seed,
+                      fold_progress, snapshots=snapshots)
+      sds.append(np.std(targets[va] - res.net.predict(x[va]), axis=0))
+      members.append(Estimator(kind, lin, res.net, res))
+    return members, sds
+
+  where = groups if groups is not None else len(counts)
+  members, sds = one_fit(counts, forces, where, linear_fit, progress)
+  base = dict(input_lo=counts.min(axis=0), input_hi=counts.max(axis=0),
+              output_lo=forces.min(axis=0), output_hi=forces.max(axis=0), samples=len(counts),
+              data_sha256=data_digest(counts, forces), settings=settings, **given)
+  extra = {}
+  if folds:
+    residual, ls_only, stats = _cross_validate(kind, counts, forces, groups, folds, seed,
+                                               one_fit, linear_fit is not None)
+    if ls_only.any():
+      members = [_ls_only(m, ls_only) for m in members]
+    extra = dict(interval_abs=np.quantile(np.abs(residual), INTERVAL_GRID, axis=0),
+                 interval_n=len(residual),
+                 validation={**stats, "ls_only": [given["outputs"][j]
+                                                  for j in np.flatnonzero(ls_only)]})
+  out = [dataclasses.replace(m, info=Info(residual_sd=sd, **base, **extra))
+         for m, sd in zip(members, sds)]
+  return out[0] if len(out) == 1 else combine(out)
+
+
+def _subset(g: splits.Groups, idx: np.ndarray) -> splits.Groups:
+  """The groups of the samples `idx`, relabelled 0..G'-1."""
+  _, labels = np.unique(g.labels[idx], return_inverse=True)
+  return splits.Groups(labels.astype(int), g.how, g.block)
+
+
+def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, lin_given):
+  """Grouped K-fold cross-validation of `one_fit`: (held-out residuals (N, A) of the
+  estimator as kept, per-output mask of LSANN outputs whose network lost to its LS stage,
+  statistics). The LS stage given to LSANN is refitted per fold (it saw every sample)."""
+  residual = np.zeros_like(forces)
+  ls_residual = np.zeros_like(forces)
+  folds = splits.folds(groups, k, seed)
+  for tr, va in folds:
+    fitted, _ = one_fit(counts[tr], forces[tr], _subset(groups, tr), None, None)
+    est = fitted[0] if len(fitted) == 1 else Estimator(kind, members=tuple(fitted))
+    residual[va] = forces[va] - est.predict(counts[va])
+    if kind is Kind.LSANN:
+      ls_residual[va] = forces[va] - fitted[0].linear.predict(counts[va])
+  rmse = np.sqrt(np.mean(residual ** 2, axis=0))
+  ls_only = np.zeros(forces.shape[1], bool)
+  stats = {"split": groups.how, "groups": groups.count, "block": groups.block,
+           "folds": len(folds), "cv_rmse": rmse.tolist()}
   if kind is Kind.LSANN:
-    lin = linear_fit or linear.fit_linear(counts, forces)
-    targets = forces - lin.predict(counts)
-  seeds = [seed] if ensemble == 1 else [
-      int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(ensemble)]
-  members = []
-  for member_seed in seeds:
-    tr, va = split_validation(len(counts), val_fraction, member_seed, val_block)
-    res = mlp.train(counts[tr], targets[tr], counts[va], targets[va], config, member_seed,
-                    progress, snapshots=snapshots)
-    sd = np.std(targets[va] - res.net.predict(counts[va]), axis=0)
-    members.append(Estimator(kind, lin, res.net, res, info(sd)))
-  return members[0] if ensemble == 1 else combine(members)
+    ls_rmse = np.sqrt(np.mean(ls_residual ** 2, axis=0))
+    ls_only = ls_rmse <= rmse
+    residual[:, ls_only] = ls_residual[:, ls_only]
+    stats.update(cv_rmse_ls_stage=ls_rmse.tolist(),
+                 cv_rmse=np.where(ls_only, ls_rmse, rmse).tolist())
+  return residual, ls_only, stats
+
+
+def _ls_only(est: Estimator, outputs: np.ndarray) -> Estimator:
+  """LSANN with its network's contribution removed on `outputs` (bool (A,)): their output
+  scaling maps to exactly 0, so every consumer (predict, the C export) sees the LS stage."""
+  y = est.net.y_scale
+  lo, hi = np.where(outputs, 0.0, y.lo), np.where(outputs, 0.0, y.hi)
+  w2 = np.where(outputs[:, None], 0.0, est.net.w2)  # a zero scaled output, mapped to 0 N
+  return dataclasses.replace(est, net=dataclasses.replace(est.net, w2=w2,
+                                                          y_scale=mlp.MinMax(lo, hi)))
 
 
 def combine(members: Sequence[Estimator]) -> Estimator:

@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
-from calibrate import __main__ as cli
+from calibrate import splits, __main__ as cli
 from calibrate import cexport, csvfile, estimators, metrics, mlp
 from calibrate.sklearn_api import ForceCalibrator
 from util import errors
@@ -187,7 +187,10 @@ def test_csv_round_trip_gives_the_python_paths_metrics(footpad_csv, tmp_path, me
   cfg = mlp.LMConfig(hidden=5, epochs=5)
   with warnings.catch_warnings():
     warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
-    est = estimators.fit(method.upper(), train.counts, train.wrench[:, :3], config=cfg)
+    # the command's default split: contiguous blocks from the inputs' autocorrelation
+    groups = splits.groups(len(train.counts), "auto", None, train.counts)
+    est = estimators.fit(method.upper(), train.counts, train.wrench[:, :3], config=cfg,
+                         groups=groups, folds=5)
     want = cli.scores(est.predict(test.counts), test.wrench[:, :3], ("Fx", "Fy", "Fz"),
                       ("N",) * 3)
   for ax in ("Fx", "Fy", "Fz"):

@@ -36,6 +36,8 @@ def progress_bar(label: str) -> Progress:
       if done == total:
         bar.close()
     elif done == total:
-      print(f"{state['name']}: {total} done in {time.perf_counter() - state['t0']:.1f} s",
-            file=stream, flush=True)
+      # one write: a Ctrl-C between the text and its newline would glue the next line on
+      stream.write(f"{state['name']}: {total} done in {time.perf_counter() - state['t0']:.1f} "
+                   f"s\n")
+      stream.flush()
   return update
