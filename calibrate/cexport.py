@@ -5,8 +5,9 @@ const` arrays (flash) and one function
 
     void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]);
 
-that computes what `Estimator.predict` computes in float64 (LS, POLY, LSANN, NN and
-ensembles, whose members it averages), with only <stdint.h> and <math.h> (tanhf). It returns
+(or `const float inputs[...]` when the estimator was fitted on inputs that are not integers
+in 0..65535: volts after a tare, signed microtesla) that computes what `Estimator.predict`
+computes in float64 (LS, POLY, LSANN, NN and ensembles, whose members it averages), with only <stdint.h> and <math.h> (tanhf). It returns
 a `Report`: multiply-adds, tanh calls, bytes of flash and of stack, against the budget of a
 1 kHz loop on the footpad's microcontroller.
 
@@ -191,6 +192,19 @@ def identifiers(names) -> list[str]:
   return out
 
 
+def integer_inputs(est) -> bool:
+  """Whether the estimator's inputs were ADC counts: integers in 0..65535 when it was fitted
+  (`fit` records it; an older file without the record: its training range decides)."""
+  info = est.info
+  if info is None:
+    return True
+  known = info.settings.get("integer_inputs")
+  if known is not None:
+    return bool(known)
+  return bool((info.input_lo >= 0).all() and (info.input_hi <= 65535).all()
+              and all(u == "counts" for u in info.input_units))
+
+
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
   from calibrate import estimators
@@ -216,27 +230,34 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
   names = est.info.outputs if est.info is not None else tuple(f"out{j}" for j in range(a))
   units = est.info.output_units if est.info is not None else ("",) * a
   inputs = est.info.inputs if est.info is not None else tuple(f"in{i}" for i in range(c))
+  counts = integer_inputs(est)
+  arg = "const uint16_t counts[ESTIMATOR_INPUTS]" if counts else \
+      "const float inputs[ESTIMATOR_INPUTS]"
+  in_units = est.info.input_units if est.info is not None else ("counts",) * c
   header = "\n".join([
       "/* Force estimator exported by the tactile testbench (python -m calibrate export).",
       f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if est.members
                                        else "") + "; float32 weights; C99, <math.h> only.",
-      f" * Inputs (counts): {', '.join(map(comment_text, inputs))}.",
+      " * Inputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
+                                for n, u in zip(inputs, in_units))
+      + ("." if counts else "; as float: they were not integer counts when fitted."),
       " * Outputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
                                  for n, u in zip(names, units)) + ". */",
       "#ifndef TESTBENCH_ESTIMATOR_H", "#define TESTBENCH_ESTIMATOR_H", "",
       "#include <stdint.h>", "",
       f"#define ESTIMATOR_INPUTS {c}", f"#define ESTIMATOR_OUTPUTS {a}", "",
-      "/* where each column sits in counts[] and out[] */"]
+      f"/* where each column sits in {'counts' if counts else 'inputs'}[] and out[] */"]
       + [f"#define ESTIMATOR_IN_{n} {i}" for i, n in enumerate(identifiers(inputs))]
       + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
-      "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]);",
+      f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);",
       "", "#endif", ""])
   source = "\n".join(
       ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + [
           "",
-          "void estimate(const uint16_t counts[ESTIMATOR_INPUTS], float out[ESTIMATOR_OUTPUTS]) {",
+          f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]) {{",
           f"  float x[{c}], acc[{a}];",
-          f"  for (int i = 0; i < {c}; ++i) x[i] = (float)counts[i];",
+          f"  for (int i = 0; i < {c}; ++i) "
+          f"x[i] = (float){'counts' if counts else 'inputs'}[i];",
           f"  float lin[{a}];",
           f"  for (int j = 0; j < {a}; ++j) {{ acc[j] = 0.0f; lin[j] = 0.0f; }}"] + w.code + [
           f"  for (int j = 0; j < {a}; ++j) out[j] = lin[j] + acc[j] * "

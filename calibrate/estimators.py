@@ -366,7 +366,10 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       raise errors.SettingError(f"{key}: {len(value)} names for {n} columns")
     given[key] = tuple(str(v) for v in value)
   settings = {"method": kind.value, "val_fraction": val_fraction, "seed": seed,
-              "val_block": None if groups is not None else val_block}
+              "val_block": None if groups is not None else val_block,
+              # ADC counts or not: the C export takes uint16_t counts only if they were
+              "integer_inputs": bool(np.all((counts >= 0) & (counts <= 65535)
+                                            & (counts == np.round(counts))))}
   if groups is not None:
     settings.update(split=groups.how, groups=groups.count, block=groups.block)
   if kind is Kind.POLY:

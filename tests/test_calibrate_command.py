@@ -346,3 +346,51 @@ def test_a_bug_in_the_command_says_so_and_saves_its_traceback(tmp_path, capsys, 
   err = capsys.readouterr().err
   assert code == 3 and "internal error" in err and "ZeroDivisionError" in err
   assert list((tmp_path / "tracebacks").glob("calibrate-*.txt"))
+
+
+HARNESS_FLOAT = r"""
+#include <stdio.h>
+#include "estimator.h"
+int main(void) {
+  for (;;) {
+    float in[ESTIMATOR_INPUTS], out[ESTIMATOR_OUTPUTS];
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i)
+      if (scanf("%f", &in[i]) != 1) return 0;
+    estimate(in, out);
+    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
+    printf("\n");
+  }
+}
+"""
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.parametrize("kind", ["LS", "POLY", "LSANN", "NN"])
+def test_an_estimator_of_signed_fractional_inputs_exports_a_float_signature(tmp_path, kind):
+  """Volts after a tare (-2..2) and signed microtesla (+-300): not counts. The export takes
+  float inputs, and the compiled estimator matches predict within 1e-5 of each output's
+  scale (the uint16_t signature would have wrapped the negative values)."""
+  rng = np.random.default_rng(3)
+  volts = rng.uniform(-2, 2, (1500, 2))
+  tesla = rng.uniform(-300, 300, (1500, 2))
+  x = np.column_stack([volts, tesla])
+  y = np.column_stack([x @ [1.0, -2.0, 0.01, 0.02], np.tanh(x[:, 0]) * 5 + 0.001 * x[:, 2] ** 2])
+  est = estimators.fit(kind, x, y, config=FAST, seed=2, degree=2,
+                       input_units=["V", "V", "uT", "uT"])
+  cexport.write(est, tmp_path)
+  header = (tmp_path / "estimator.h").read_text()
+  assert "const float inputs[ESTIMATOR_INPUTS]" in header and "uint16_t counts" not in header
+  (tmp_path / "main.c").write_text(HARNESS_FLOAT)
+  exe = tmp_path / "est"
+  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
+                  str(exe)], check=True, capture_output=True, text=True)
+  test = np.column_stack([rng.uniform(-2, 2, (200, 2)), rng.uniform(-300, 300, (200, 2))])
+  test = test.astype(np.float32).astype(float)  # what the C reads
+  run = subprocess.run([str(exe)], input="\n".join(" ".join(f"{v:.9g}" for v in r)
+                                                   for r in test),
+                       capture_output=True, text=True, check=True)
+  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  want = est.predict(test)
+  scale = np.abs(want).max(axis=0)
+  assert np.max(np.abs(c_out - want) / scale) < 1e-5
