@@ -69,7 +69,13 @@ def _parser() -> argparse.ArgumentParser:
                  help="networks from this many seeds; predict gives their spread (default 1)")
   p.add_argument("--hidden", type=int, default=10, help="hidden units (default 10, the paper's)")
   p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
-  p.add_argument("--degree", type=int, default=3, help="poly degree (default 3, the shell's)")
+  p.add_argument("--degree", type=int, default=3,
+                 help="poly: the highest degree (default 3); with cross-validation the degree "
+                      "1..this and the ridge weight are chosen on held-out groups")
+  p.add_argument("--per-channel", action="store_true",
+                 help="poly: powers of each channel alone, no cross terms and no ridge (the "
+                      "force-sensing-shell paper's pseudoinverse); default: every product of "
+                      "total degree <= --degree, continued linearly beyond the training box")
   p.add_argument("--val-fraction", type=float, default=0.15,
                  help="share held out for early stopping and the residual spread (0.15)")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
@@ -153,7 +159,8 @@ def fit(args) -> int:
                          outputs=[table.names[i] for i in outs],
                          input_units=[table.units[i] or "counts" for i in ins],
                          output_units=[table.units[i] or "N" for i in outs],
-                         groups=groups, folds=args.folds if groups.count >= 2 else 0)
+                         groups=groups, folds=args.folds if groups.count >= 2 else 0,
+                         cross=args.method == "poly" and not args.per_channel)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
                            f"{args.val_fraction:.0%} of them held out for validation: "
@@ -172,6 +179,11 @@ def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
         f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
   v = info.validation
   print(f"validation: {groups.describe()}")
+  if info.settings.get("cross"):
+    print(f"polynomial: every product of total degree <= {info.settings['degree']}, ridge "
+          f"{info.settings['ridge_per_sample']:g} per sample"
+          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in info.settings
+             else "") + "; linear beyond the training box")
   if v:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))

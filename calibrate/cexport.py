@@ -140,6 +140,49 @@ class _Writer:
         "    }",
         "  }"]
 
+  def poly(self, fit, tag: str, c: int) -> None:
+    """A polynomial with cross terms (`calibrate.poly.PolyFit`), continued along its tangent
+    plane beyond the training box, as `PolyFit.predict` does."""
+    t, a = fit.coef.shape
+    mean, inv = self.array(f"{tag}_MEAN", fit.mean), self.array(f"{tag}_INV_SCALE", 1 / fit.scale)
+    lo, hi = self.array(f"{tag}_LO", fit.lo), self.array(f"{tag}_HI", fit.hi)
+    coef, bias = self.array(f"{tag}_COEF", fit.coef), self.array(f"{tag}_BIAS", fit.bias)
+    pw = f"{tag}_POW"
+    self.arrays.append(f"static const unsigned char {pw}[{fit.powers.size}] = "
+                       f"{{{', '.join(str(int(v)) for v in fit.powers.ravel())}}};")
+    self.flash += fit.powers.size
+    self.macs += t * (fit.degree + a)
+    self.stack = max(self.stack, 12 * c)
+    self.code += [
+        f"  {{ /* polynomial with cross terms, degree {fit.degree}, {t} terms; linear beyond "
+        f"the training box */",
+        f"    float z[{c}], zc[{c}], dz[{c}];",
+        "    int outside = 0;",
+        f"    for (int i = 0; i < {c}; ++i) {{",
+        f"      z[i] = (x[i] - {mean}[i]) * {inv}[i];",
+        f"      zc[i] = z[i] < {lo}[i] ? {lo}[i] : (z[i] > {hi}[i] ? {hi}[i] : z[i]);",
+        "      dz[i] = z[i] - zc[i];",
+        "      outside |= dz[i] != 0.0f;",
+        "    }",
+        f"    for (int j = 0; j < {a}; ++j) acc[j] += {bias}[j];",
+        f"    for (int t = 0; t < {t}; ++t) {{",
+        f"      const unsigned char *e = &{pw}[t * {c}];",
+        f"      const float *row = &{coef}[t * {a}];",
+        "      float m = 1.0f;",
+        f"      for (int i = 0; i < {c}; ++i)",
+        "        for (int k = 0; k < e[i]; ++k) m *= zc[i];",
+        f"      for (int j = 0; j < {a}; ++j) acc[j] += row[j] * m;",
+        "      if (!outside) continue;",
+        f"      for (int v = 0; v < {c}; ++v) {{ /* the tangent plane's slope along z[v] */",
+        "        if (e[v] == 0 || dz[v] == 0.0f) continue;",
+        "        float g = (float)e[v];",
+        f"        for (int i = 0; i < {c}; ++i)",
+        "          for (int k = 0; k < e[i] - (i == v); ++k) g *= zc[i];",
+        f"        for (int j = 0; j < {a}; ++j) acc[j] += row[j] * g * dz[v];",
+        "      }",
+        "    }",
+        "  }"]
+
   def network(self, net, tag: str) -> None:
     h, d1 = net.w1.shape
     c, a = d1 - 1, net.w2.shape[0]
@@ -210,8 +253,9 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
   from calibrate import estimators
   members = est.members or (est,)
   c = est.n_inputs
-  a = (members[0].linear.coef.shape[1] if members[0].linear is not None
-       else members[0].net.w2.shape[0])
+  first = members[0]
+  a = (first.poly.coef.shape[1] if first.poly is not None else
+       first.linear.coef.shape[1] if first.linear is not None else first.net.w2.shape[0])
   w = _Writer()
   # an ensemble's members share the linear stage they were fitted with: computed once
   shared = len(members) > 1 and all(m.linear is not None for m in members) and all(
@@ -221,7 +265,9 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
     w.linear(members[0].linear, "SHARED_LIN", c, acc="lin")
   for k, m in enumerate(members):
     tag = f"M{k}"
-    if m.kind is not estimators.Kind.NN and not shared:
+    if m.poly is not None:
+      w.poly(m.poly, f"{tag}_POLY", c)
+    elif m.kind is not estimators.Kind.NN and not shared:
       w.linear(m.linear, f"{tag}_LIN", c)
     if m.kind in (estimators.Kind.NN, estimators.Kind.LSANN):
       w.network(m.net, f"{tag}_NET")

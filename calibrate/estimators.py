@@ -18,6 +18,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from calibrate import linear, mlp, splits
+from calibrate import poly as poly_lib
 from util import errors, files
 
 
@@ -140,15 +141,20 @@ class Estimator:
   training: Optional[mlp.TrainResult] = None
   info: Optional[Info] = None
   members: tuple["Estimator", ...] = ()
+  poly: Optional[poly_lib.PolyFit] = None  # POLY with cross terms, in place of `linear`
 
   @property
   def n_inputs(self) -> int:
     one = self.members[0] if self.members else self
+    if one.poly is not None:
+      return len(one.poly.mean)
     return len(one.linear.mean) if one.linear is not None else one.net.w1.shape[1] - 1
 
   def _predict_one(self, counts: np.ndarray) -> np.ndarray:
     if self.kind is Kind.NN:
       return self.net.predict(counts)
+    if self.poly is not None:
+      return self.poly.predict(counts)
     f = self.linear.predict(counts)
     return f + self.net.predict(counts) if self.kind is Kind.LSANN else f
 
@@ -197,6 +203,10 @@ class Estimator:
       for f in ("mean", "scale", "coef", "bias"):
         arrays[f"linear_{f}"] = getattr(self.linear, f)
       meta.update(rank=self.linear.rank, degree=self.linear.degree)
+    if self.poly is not None:
+      arrays.update({f"poly_{f}": getattr(self.poly, f)
+                     for f in ("mean", "scale", "lo", "hi", "powers", "coef", "bias")})
+      meta.update(ridge=self.poly.ridge, rank=self.poly.rank)
     if self.net is not None:
       arrays.update(net_w1=self.net.w1, net_w2=self.net.w2, net_x_lo=self.net.x_scale.lo,
                     net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
@@ -254,6 +264,16 @@ def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
                     for i, m in enumerate(meta["members"]))
     return Estimator(kind, info=info, members=members)
   lin = net = None
+  if "poly_coef" in arrays:
+    p = poly_lib.PolyFit(*(arrays[f"poly_{f}"] for f in ("mean", "scale", "lo", "hi")),
+                         arrays["poly_powers"].astype(int), arrays["poly_coef"],
+                         arrays["poly_bias"], float(meta["ridge"]), int(meta["rank"]))
+    c = len(p.mean)
+    if any(a.shape != (c,) for a in (p.scale, p.lo, p.hi)) or p.powers.shape[1:] != (c,) or \
+       p.coef.shape[0] != len(p.powers) or p.bias.shape != p.coef.shape[1:] or \
+       kind is not Kind.POLY:
+      raise ValueError("the polynomial's arrays do not fit together")
+    return Estimator(kind, info=info, poly=p)
   if "linear_coef" in arrays:
     lin = linear.LinearFit(arrays["linear_mean"], arrays["linear_scale"],
                            arrays["linear_coef"], arrays["linear_bias"], int(meta["rank"]),
@@ -314,7 +334,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         inputs: Optional[Sequence[str]] = None, outputs: Optional[Sequence[str]] = None,
         input_units: Optional[Sequence[str]] = None,
         output_units: Optional[Sequence[str]] = None,
-        groups: Optional[splits.Groups] = None, folds: int = 0) -> Estimator:
+        groups: Optional[splits.Groups] = None, folds: int = 0,
+        cross: bool = False, ridge: Optional[float] = None) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -335,6 +356,11 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       in0.., out0.., "counts", "N").
     groups: the samples' groups (`calibrate.splits`): validation then holds out whole groups
       (recordings or time blocks), never single samples between training ones.
+    cross: POLY as a total-degree polynomial with cross terms, ridge-regularised and
+      continued linearly beyond its training box (`calibrate.poly`); False: the shell
+      paper's powers of each channel alone (`linear.fit_linear`).
+    ridge: with `cross`, the ridge weight per training sample; None: chosen with the degree
+      (1..`degree`) by grouped cross-validation over `folds` when given, else 0.
     folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
       its held-out residuals size the estimator's interval (`Info.half_width`) and its
       RMSE per output is kept; an LSANN output whose network does not beat its LS stage
@@ -349,6 +375,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
                               f"seeds would agree; an ensemble is for LSANN and NN")
   if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2 ** 63):
     raise errors.SettingError(f"seed={seed!r} is out of range: allowed integers >= 0")
+  if kind is Kind.POLY and not (isinstance(degree, (int, np.integer)) and 1 <= degree <= 5):
+    raise errors.SettingError(f"degree={degree!r} is out of range: allowed integers 1..5")
   if folds and groups is None:
     raise errors.SettingError("folds need groups (calibrate.splits.groups): cross-validation "
                               "over single samples would flatter every method")
@@ -372,6 +400,14 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
                                             & (counts == np.round(counts))))}
   if groups is not None:
     settings.update(split=groups.how, groups=groups.count, block=groups.block)
+  if kind is Kind.POLY and cross:
+    if ridge is None and folds:
+      degree, lam, table = poly_lib.choose(counts, forces, splits.folds(groups, folds, seed),
+                                           tuple(range(1, degree + 1)))
+      ridge = lam / len(counts)
+      settings["poly_cv_mse"] = table
+    ridge = 0.0 if ridge is None else float(ridge)
+    settings.update(cross=True, ridge_per_sample=ridge)
   if kind is Kind.POLY:
     settings["degree"] = degree
   if kind in (Kind.LSANN, Kind.NN):
@@ -384,6 +420,11 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
 
   def one_fit(x, y, where, lin_given, fold_progress):
     """(estimator without info, held-out residual sd) fitted on x, y."""
+    if kind is Kind.POLY and cross:
+      tr, va = split(where, seed)
+      held = poly_lib.fit(x[tr], y[tr], degree, ridge * len(tr))
+      sd = np.std(y[va] - held.predict(x[va]), axis=0)
+      return [Estimator(kind, poly=poly_lib.fit(x, y, degree, ridge * len(x)))], [sd]
     if kind in (Kind.LS, Kind.POLY):
       d = degree if kind is Kind.POLY else 1
       tr, va = split(where, seed)

@@ -489,3 +489,17 @@ def test_predict_keeps_the_time_column_of_a_file_with_a_byte_order_mark(csvs, ca
              0)
   out = csvfile.read(tmp_path / "p.csv")
   assert out.names[0] == "time" and len(out.data) == len(csvfile.read(ex / "test.csv").data)
+
+
+def test_a_reader_that_leaves_early_loses_no_work(csvs, tmp_path):
+  """`python -m calibrate evaluate ... | head -1`: the pipe closes after the first line; the
+  command still writes its results and exits 0, with no traceback."""
+  import subprocess
+  import sys
+  ex, est = csvs
+  cmd = (f"{sys.executable} -m calibrate evaluate {est} --csv {ex / 'test.csv'} --out "
+         f"{tmp_path / 'ev'} | head -1")
+  run = subprocess.run(["bash", "-c", f"set -o pipefail; {cmd}"], capture_output=True,
+                       text=True)
+  assert run.returncode == 0 and "Traceback" not in run.stderr and "internal" not in run.stderr
+  assert (tmp_path / "ev" / "metrics.json").exists()

@@ -240,18 +240,21 @@ int main(void) {
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("kind, ensemble", [("LS", 1), ("POLY", 1), ("LSANN", 1), ("NN", 2),
-                                            ("LSANN", 3)])
-def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble):
+@pytest.mark.parametrize("kind, ensemble, cross", [
+    ("LS", 1, False), ("POLY", 1, False), ("POLY", 1, True), ("LSANN", 1, False),
+    ("NN", 2, False), ("LSANN", 3, False)])
+def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cross):
   counts, forces = _data()
-  est = estimators.fit(kind, counts, forces, config=FAST, ensemble=ensemble, seed=1)
+  est = estimators.fit(kind, counts, forces, config=FAST, ensemble=ensemble, seed=1,
+                       cross=cross, ridge=1e-6 if cross else None)
   report = cexport.write(est, tmp_path)
   (tmp_path / "main.c").write_text(HARNESS)
   exe = tmp_path / "est"
   subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
                   str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
                   str(exe)], check=True, capture_output=True, text=True)
-  test = np.random.default_rng(9).integers(600, 3500, (300, 6))
+  # past the training range too: the cross-term polynomial's tangent plane out there
+  test = np.random.default_rng(9).integers(300, 3900, (300, 6))
   run = subprocess.run([str(exe)], input="\n".join(" ".join(map(str, r)) for r in test),
                        capture_output=True, text=True, check=True)
   c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])

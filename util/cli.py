@@ -44,6 +44,7 @@ def run(body: Callable[[], int], command: str,
   traceback goes to the cache's `tracebacks/` folder, named after `command`, the time and a
   unique suffix."""
   before, warnings.formatwarning = warnings.formatwarning, _warning_line
+  out, sys.stdout = sys.stdout, _Reader(sys.stdout)
   try:
     return body()
   except errors.UserError as err:
@@ -56,6 +57,36 @@ def run(body: Callable[[], int], command: str,
     return internal_error(traceback_path(command))
   finally:
     warnings.formatwarning = before
+    if isinstance(sys.stdout, _Reader) and sys.stdout.gone:
+      # the reader left (`| head`): keep Python's own last flush from complaining
+      os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
+    sys.stdout = out
+
+
+class _Reader:
+  """The command's stdout, which may be a pipe whose reader leaves early (`... | head`): the
+  rest of the report goes nowhere, and the work (its files) still completes."""
+
+  def __init__(self, stream):
+    self._stream, self.gone = stream, False
+
+  def write(self, text: str) -> int:
+    if not self.gone:
+      try:
+        self._stream.write(text)
+      except BrokenPipeError:
+        self.gone = True
+    return len(text)
+
+  def flush(self) -> None:
+    if not self.gone:
+      try:
+        self._stream.flush()
+      except BrokenPipeError:
+        self.gone = True
+
+  def __getattr__(self, name):
+    return getattr(self._stream, name)
 
 
 def traceback_path(command: str) -> pathlib.Path:

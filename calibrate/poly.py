@@ -1,0 +1,168 @@
+"""A total-degree polynomial with cross terms, ridge-regularised, that grows only linearly
+outside the box it was fitted in.
+
+The shell paper's pseudoinverse (`linear.fit_linear(degree=3)`) takes powers of each channel
+alone: it cannot express a coupling between channels (a product s_1 s_2), and a cube
+evaluated beyond the training range explodes (R^2 of -2480 % across recordings on a real
+sensor). Here the features are every monomial of the standardised inputs z of total degree
+1..d (`powers`), fitted with a ridge weight by SVD of the centred features (never forming
+the normal matrix), and the prediction outside the training box [lo, hi] of z continues
+along the tangent plane at the nearest point of the box: f(z) = f(c) + grad f(c) . (z - c),
+c = clip(z, lo, hi). Inside the box it is the polynomial itself, identical to scikit-learn's
+`PolynomialFeatures(d, include_bias=False)` + `Ridge(alpha)` on the same z.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+
+import numpy as np
+import scipy.linalg
+
+from util import errors
+
+
+def powers(channels: int, degree: int, cross: bool = True) -> np.ndarray:
+  """(T, C) exponents of the monomials of total degree 1..degree in graded order (all
+  products with `cross`; each channel's own powers without)."""
+  if not (isinstance(degree, (int, np.integer)) and 1 <= degree <= 5):
+    raise errors.SettingError(f"degree={degree!r} is out of range: allowed integers 1..5")
+  rows = []
+  for d in range(1, degree + 1):
+    for combo in itertools.combinations_with_replacement(range(channels), d):
+      if not cross and len(set(combo)) > 1:
+        continue
+      e = np.zeros(channels, int)
+      for c in combo:
+        e[c] += 1
+      rows.append(e)
+  return np.array(rows, int).reshape(-1, channels)
+
+
+def monomials(z: np.ndarray, p: np.ndarray) -> np.ndarray:
+  """(N, T) the monomials z^p of (N, C) inputs, by repeated products (exponents <= 5)."""
+  out = np.ones((len(z), len(p)))
+  for c in range(p.shape[1]):
+    for k in range(1, int(p[:, c].max(initial=0)) + 1):
+      out[:, p[:, c] >= k] *= z[:, c:c + 1]
+  return out
+
+
+def gradient(z: np.ndarray, p: np.ndarray, coef: np.ndarray) -> np.ndarray:
+  """(N, A, C) gradient of the polynomial sum_t coef[t] z^p[t] at z (N, C)."""
+  n, c = z.shape
+  out = np.zeros((n, coef.shape[1], c))
+  for j in range(c):
+    has = p[:, j] > 0
+    if not has.any():
+      continue
+    lower = p[has].copy()
+    lower[:, j] -= 1
+    out[:, :, j] = (monomials(z, lower) * p[has, j]) @ coef[has]
+  return out
+
+
+@dataclasses.dataclass(frozen=True)
+class PolyFit:
+  """F ~ bias + monomials(z) @ coef, z = (x - mean) / scale, continued linearly beyond the
+  training box [lo, hi] of z.
+
+  Attributes:
+    mean, scale: (C,) standardisation of the inputs (scale 1 for a constant channel).
+    lo, hi: (C,) the training box, standardised units.
+    powers: (T, C) exponents of the monomials.
+    coef: (T, A) coefficients.  bias: (A,) intercept, output units.
+    ridge: the ridge weight it was fitted with (on the sum of squares, as scikit-learn's
+      `Ridge(alpha)`).
+    rank: numerical rank of the centred features.
+  """
+  mean: np.ndarray
+  scale: np.ndarray
+  lo: np.ndarray
+  hi: np.ndarray
+  powers: np.ndarray
+  coef: np.ndarray
+  bias: np.ndarray
+  ridge: float
+  rank: int
+
+  @property
+  def degree(self) -> int:
+    return int(self.powers.sum(axis=1).max())
+
+  def standardise(self, x: np.ndarray) -> np.ndarray:
+    return (np.asarray(x, float) - self.mean) / self.scale
+
+  def predict(self, x: np.ndarray) -> np.ndarray:
+    """(N, A) outputs from (N, C) inputs: the polynomial inside the training box, its tangent
+    plane at the nearest point of the box outside it."""
+    z = self.standardise(x)
+    c = np.clip(z, self.lo, self.hi)
+    f = monomials(c, self.powers) @ self.coef + self.bias
+    out = np.any(z != c, axis=1)
+    if out.any():
+      g = gradient(c[out], self.powers, self.coef)
+      f[out] += np.einsum("nac,nc->na", g, z[out] - c[out])
+    return f
+
+
+def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bool = True,
+        rcond: float = 1e-10) -> PolyFit:
+  """Ridge least squares of y (N, A) on the monomials of the standardised x (N, C).
+
+  Minimises |y - b - M coef|^2 + ridge |coef|^2 (the bias unpenalised) through the SVD of
+  the centred monomials M: coef = V diag(s / (s^2 + ridge)) U^T (y - mean y), singular values
+  below rcond x the largest dropped (then it warns how many).
+  """
+  import warnings
+  if not (np.isfinite(ridge) and ridge >= 0):
+    raise errors.SettingError(f"ridge={ridge!r} is out of range: allowed [0, inf)")
+  mean, scale = x.mean(axis=0), x.std(axis=0)
+  scale = np.where(scale > 1e-12 * np.maximum(np.abs(mean), 1e-300), scale, 1.0)
+  z = (x - mean) / scale
+  p = powers(x.shape[1], degree, cross)
+  m = monomials(z, p)
+  m_mean, y_mean = m.mean(axis=0), y.mean(axis=0)
+  u, s, vt = scipy.linalg.svd(m - m_mean, full_matrices=False)
+  keep = s > rcond * s[0] if s.size and s[0] > 0 else np.zeros(len(s), bool)
+  rank = int(keep.sum())
+  if rank < m.shape[1] and ridge == 0:
+    warnings.warn(f"polynomial features are rank-deficient ({rank} of {m.shape[1]}): "
+                  f"{m.shape[1] - rank} direction(s) dropped")
+  d = np.where(keep, s / (s ** 2 + ridge), 0.0)
+  coef = vt.T @ (d[:, None] * (u.T @ (y - y_mean)))
+  return PolyFit(mean, scale, z.min(axis=0), z.max(axis=0), p, coef, y_mean - m_mean @ coef,
+                 float(ridge), rank)
+
+
+RIDGES = (0.0,) + tuple(10.0 ** k for k in range(-8, 1))  # times the number of samples
+
+
+def choose(x, y, folds, degrees=(1, 2, 3)) -> tuple[int, float, dict]:
+  """(degree, ridge, table) with the lowest grouped cross-validated mean squared error over
+  `folds` ((train, held-out) index pairs): every degree in `degrees`, ridge weights
+  `RIDGES` x the training samples. The SVD of each fold is shared by its ridge weights."""
+  table = {}
+  for deg in degrees:
+    sse = np.zeros(len(RIDGES))
+    for tr, va in folds:
+      mean, scale = x[tr].mean(axis=0), x[tr].std(axis=0)
+      scale = np.where(scale > 0, scale, 1.0)
+      p = powers(x.shape[1], deg)
+      m_tr = monomials((x[tr] - mean) / scale, p)
+      m_mean, y_mean = m_tr.mean(axis=0), y[tr].mean(axis=0)
+      u, s, vt = scipy.linalg.svd(m_tr - m_mean, full_matrices=False)
+      keep = s > 1e-10 * s[0]
+      uty = u.T @ (y[tr] - y_mean)
+      box_lo, box_hi = ((x[tr] - mean) / scale).min(axis=0), ((x[tr] - mean) / scale).max(axis=0)
+      for k, r in enumerate(RIDGES):
+        lam = r * len(tr)
+        coef = vt.T @ (np.where(keep, s / (s ** 2 + lam), 0.0)[:, None] * uty)
+        held = PolyFit(mean, scale, box_lo, box_hi, p, coef, y_mean - m_mean @ coef, lam, 0)
+        sse[k] += np.sum((held.predict(x[va]) - y[va]) ** 2)
+    for k, r in enumerate(RIDGES):
+      table[(deg, r)] = float(sse[k] / len(y))
+  (deg, r), _ = min(table.items(), key=lambda kv: kv[1])
+  return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
+                           for (d, r), v in table.items()}
