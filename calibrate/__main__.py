@@ -1,6 +1,7 @@
 """Command line: calibrate recordings from your own rig, kept as CSV.
 
-  python -m calibrate fit --csv train.csv --inputs 'p*' --targets Fx,Fy,Fz --method lsann
+  python -m calibrate fit --csv runs/*.csv --inputs 'p*' --targets Fx,Fy,Fz --method auto
+  python -m calibrate compare --csv runs/*.csv --inputs 'p*' --targets Fx,Fy,Fz
   python -m calibrate predict estimator.npz --csv new.csv [--std] [--out predictions.csv]
   python -m calibrate evaluate estimator.npz --csv test.csv [--out DIR]
   python -m calibrate export estimator.npz --c OUT_DIR
@@ -26,7 +27,7 @@ import numpy as np
 from calibrate import splits as splits_lib
 from util import cli, errors, files
 
-METHODS = ("ls", "poly", "lsann", "nn")
+METHODS = ("ls", "poly", "lsann", "nn", "auto")
 # median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
 THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
 
@@ -39,47 +40,30 @@ def _parser() -> argparse.ArgumentParser:
       epilog="CSV layout:\n" + "\n".join(
           line for line in csvfile.__doc__.splitlines() if line.startswith("*")))
   sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-  p = sub.add_parser("fit", help="fit an estimator on CSV recordings")
-  p.add_argument("--csv", required=True, type=cli.path_arg, nargs="+",
-                 help="training recordings: one or more files or globs ('runs/*.csv'); each "
-                      "file is a recording, held out whole by the default split")
-  p.add_argument("--group", default=None,
-                 help="a column whose value tells recordings apart within a file (e.g. a "
-                      "trial number); with several files, groups are per file and value")
-  p.add_argument("--split", default="auto", choices=splits_lib.HOW,
-                 help="what validation holds out: auto (whole recordings where there are "
-                      "several, else contiguous blocks as long as the inputs' "
-                      "autocorrelation), recordings, blocks, or samples (single samples at "
-                      "random, the LSANN paper's: flatters every method)")
-  p.add_argument("--folds", type=int, default=5,
-                 help="grouped cross-validation folds for the held-out error and the "
-                      "interval (default 5; 0: none, and no interval)")
-  p.add_argument("--level", type=float, default=0.95,
-                 help="interval level to report (default 0.95; predict --interval takes any)")
-  p.add_argument("--inputs", required=True,
-                 help="sensor columns, comma-separated names or globs (e.g. 'p*')")
-  p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
-  p.add_argument("--method", required=True, type=_method, metavar="{" + ",".join(METHODS) + "}",
-                 help="ls: linear least squares; poly: polynomial pseudoinverse; lsann: LS "
-                      "plus a network on its residual; nn: the network alone")
-  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
-                 help="where to write the estimator (default estimator.npz)")
-  p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
-  p.add_argument("--ensemble", type=int, default=1,
-                 help="networks from this many seeds; predict gives their spread (default 1)")
-  p.add_argument("--hidden", type=int, default=10, help="hidden units (default 10, the paper's)")
-  p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
-  p.add_argument("--degree", type=int, default=3,
-                 help="poly: the highest degree (default 3); with cross-validation the degree "
-                      "1..this and the ridge weight are chosen on held-out groups")
-  p.add_argument("--per-channel", action="store_true",
-                 help="poly: powers of each channel alone, no cross terms and no ridge (the "
-                      "force-sensing-shell paper's pseudoinverse); default: every product of "
-                      "total degree <= --degree, continued linearly beyond the training box")
-  p.add_argument("--val-fraction", type=float, default=0.15,
-                 help="share held out for early stopping and the residual spread (0.15)")
-  p.add_argument("--time-column", default="time", help="name of the time column (time)")
-  p.add_argument("--no-progress", action="store_true", help="no progress bar")
+  for command, text in (("fit", "fit an estimator on CSV recordings"),
+                        ("compare", "every method on the same held-out groups: the table")):
+    p = sub.add_parser(command, help=text)
+    _training_args(p)
+    if command == "fit":
+      p.add_argument("--method", required=True, type=_method,
+                     metavar="{" + ",".join(METHODS) + "}",
+                     help="ls: linear least squares; poly: polynomial with cross terms; "
+                          "lsann: LS plus a network on its residual; nn: the network alone; "
+                          "auto: all four on the same held-out groups, the best kept per "
+                          "output")
+      p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
+                     help="where to write the estimator (default estimator.npz)")
+      p.add_argument("--ensemble", type=int, default=1,
+                     help="networks from this many seeds; predict gives their spread "
+                          "(default 1)")
+      p.add_argument("--per-channel", action="store_true",
+                     help="poly: powers of each channel alone, no cross terms and no ridge "
+                          "(the force-sensing-shell paper's pseudoinverse); default: every "
+                          "product of total degree <= --degree, continued linearly beyond "
+                          "the training box")
+    else:
+      p.add_argument("--out", type=cli.path_arg, default=None,
+                     help="also write the table to this CSV file")
   for name, text in (("predict", "apply an estimator to a CSV recording"),
                      ("evaluate", "the papers' metrics and figures on held-out data")):
     p = sub.add_parser(name, help=text)
@@ -113,6 +97,39 @@ def _parser() -> argparse.ArgumentParser:
   return parser
 
 
+def _training_args(p: argparse.ArgumentParser) -> None:
+  """The options `fit` and `compare` share: the recordings, the columns, the split."""
+  p.add_argument("--csv", required=True, type=cli.path_arg, nargs="+",
+                 help="training recordings: one or more files or globs ('runs/*.csv'); each "
+                      "file is a recording, held out whole by the default split")
+  p.add_argument("--inputs", required=True,
+                 help="sensor columns, comma-separated names or globs (e.g. 'p*')")
+  p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
+  p.add_argument("--group", default=None,
+                 help="a column whose value tells recordings apart within a file (e.g. a "
+                      "trial number); with several files, groups are per file and value")
+  p.add_argument("--split", default="auto", choices=splits_lib.HOW,
+                 help="what validation holds out: auto (whole recordings where there are "
+                      "several, else contiguous blocks as long as the inputs' "
+                      "autocorrelation), recordings, blocks, or samples (single samples at "
+                      "random, the LSANN paper's: flatters every method)")
+  p.add_argument("--folds", type=int, default=5,
+                 help="grouped cross-validation folds for the held-out error and the "
+                      "interval (default 5; 0: none, and no interval)")
+  p.add_argument("--level", type=float, default=0.95,
+                 help="interval level to report (default 0.95; predict --interval takes any)")
+  p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
+  p.add_argument("--hidden", type=int, default=10, help="hidden units (default 10, the paper's)")
+  p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
+  p.add_argument("--degree", type=int, default=3,
+                 help="poly: the highest degree (default 3); with cross-validation the degree "
+                      "1..this and the ridge weight are chosen on held-out groups")
+  p.add_argument("--val-fraction", type=float, default=0.15,
+                 help="share held out for early stopping and the residual spread (0.15)")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
 def _method(text: str) -> str:
   """--method's value; a typo is answered with the closest method."""
   if text.lower() in METHODS:
@@ -124,9 +141,9 @@ def _list(text: str) -> list[str]:
   return [t.strip() for t in text.split(",") if t.strip()]
 
 
-def fit(args) -> int:
-  from calibrate import csvfile, estimators, mlp
-  files.output_file(args.out, "--out", (".npz",))
+def _training(args):
+  """(table, x, y, groups, names) of `fit` and `compare`, every option checked first."""
+  from calibrate import csvfile
   if not 0 <= args.folds <= 20:
     raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
   if not 0.5 <= args.level <= 0.999:
@@ -148,17 +165,63 @@ def fit(args) -> int:
   except errors.SettingError as err:  # too few rows or recordings: say which file
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s) in {recording.max() + 1} "
                            f"recording(s), --split {args.split}: {err}") from None
+  names = dict(inputs=[table.names[i] for i in ins], outputs=[table.names[i] for i in outs],
+               input_units=[table.units[i] or "counts" for i in ins],
+               output_units=[table.units[i] or "N" for i in outs])
+  return table, x, y, groups, names
+
+
+def _auto(args, x, y, groups, names):
+  from calibrate import estimators, mlp
+  from util.progress import progress_bar
+  if groups.count < 2 or args.folds < 2:
+    raise errors.SettingError("method auto chooses on held-out groups: give --folds 2 or "
+                              "more, and data that make two groups or more")
+  return estimators.fit_auto(
+      x, y, groups, args.folds, config=mlp.LMConfig(hidden=args.hidden, epochs=args.epochs),
+      seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
+      progress=None if args.no_progress else progress_bar("training"), **names)
+
+
+def compare(args) -> int:
+  if args.out is not None:
+    files.output_file(args.out, "--out", (".csv",))
+  table, x, y, groups, names = _training(args)
+  print(f"{len(x)} samples of {table.path}; validation: {groups.describe()}")
+  est, candidates = _auto(args, x, y, groups, names)
+  _print_candidates(est, candidates)
+  if args.out is not None:
+    import csv
+    import io
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["method"] + [f"{n}_cv_rmse" for n in names["outputs"]] + ["fit_seconds"])
+    writer.writerows([m] + [repr(v) for v in row["cv_rmse"]] + [repr(row["seconds"])]
+                     for m, row in candidates.items())
+    writer.writerow(["kept"] + est.info.validation["chosen"] + [""])
+    files.write_text(args.out, buf.getvalue())
+    print(f"wrote {args.out}")
+  return 0
+
+
+def fit(args) -> int:
+  from calibrate import estimators, mlp
+  files.output_file(args.out, "--out", (".npz",))
+  table, x, y, groups, names = _training(args)
+  if args.method == "auto":
+    est, candidates = _auto(args, x, y, groups, names)
+    est.save(args.out)
+    _print_candidates(est, candidates)
+    _report_fit(est, table, args, y, groups)
+    print(f"wrote {args.out}")
+    return 0
   from util.progress import progress_bar
   progress = None if args.no_progress else progress_bar("training")
   config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
   try:
     est = estimators.fit(estimators.Kind(args.method.upper()), x, y, config=config,
                          seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
-                         ensemble=args.ensemble, progress=progress,
-                         inputs=[table.names[i] for i in ins],
-                         outputs=[table.names[i] for i in outs],
-                         input_units=[table.units[i] or "counts" for i in ins],
-                         output_units=[table.units[i] or "N" for i in outs],
+                         ensemble=args.ensemble, progress=progress, **names,
                          groups=groups, folds=args.folds if groups.count >= 2 else 0,
                          cross=args.method == "poly" and not args.per_channel)
   except errors.DataError as err:  # say which file, and how many rows it gave
@@ -169,6 +232,18 @@ def fit(args) -> int:
   _report_fit(est, table, args, y, groups)
   print(f"wrote {args.out}")
   return 0
+
+
+def _print_candidates(est, candidates: dict) -> None:
+  """The held-out RMSE of every candidate per output, the kept one marked."""
+  info = est.info
+  print(f"{'method':8s} " + " ".join(f"{n:>12s}" for n in info.outputs) + f" {'fit s':>8s}")
+  chosen = info.validation["chosen"]
+  for method, row in candidates.items():
+    print(f"{method:8s} " + " ".join(
+        f"{v:11.4g}{'*' if chosen[j] == method else ' '}" for j, v in enumerate(row["cv_rmse"]))
+        + f" {row['seconds']:8.1f}")
+  print("held-out RMSE per output (grouped cross-validation); * the method kept for it")
 
 
 def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
@@ -338,8 +413,8 @@ def example(args) -> int:
 
 def main(argv: Optional[list[str]] = None) -> int:
   args = _parser().parse_args(argv)
-  command = {"fit": fit, "predict": predict, "evaluate": evaluate, "export": export,
-             "example": example}[args.command]
+  command = {"fit": fit, "compare": compare, "predict": predict, "evaluate": evaluate,
+             "export": export, "example": example}[args.command]
   return cli.run(lambda: command(args), "calibrate", "interrupted: nothing was written")
 
 

@@ -248,31 +248,58 @@ def integer_inputs(est) -> bool:
               and all(u == "counts" for u in info.input_units))
 
 
-def write(est, out_dir, budget: Budget = Budget()) -> Report:
-  """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
+def _outputs(est) -> int:
+  one = est.parts[0] if est.parts else est.members[0] if est.members else est
+  if one.parts or one.members:
+    return _outputs(one)
+  return (one.poly.coef.shape[1] if one.poly is not None else
+          one.linear.coef.shape[1] if one.linear is not None else one.net.w2.shape[0])
+
+
+def _compute(est, w: _Writer, c: int, a: int, dest: str, prefix: str = "") -> list[str]:
+  """C lines that compute `est` (one estimator or an ensemble) from x[] into dest[a]."""
   from calibrate import estimators
   members = est.members or (est,)
-  c = est.n_inputs
-  first = members[0]
-  a = (first.poly.coef.shape[1] if first.poly is not None else
-       first.linear.coef.shape[1] if first.linear is not None else first.net.w2.shape[0])
-  w = _Writer()
+  before = len(w.code)
   # an ensemble's members share the linear stage they were fitted with: computed once
   shared = len(members) > 1 and all(m.linear is not None for m in members) and all(
       all(np.array_equal(getattr(m.linear, f), getattr(members[0].linear, f))
           for f in ("mean", "scale", "coef", "bias")) for m in members[1:])
   if shared:
-    w.linear(members[0].linear, "SHARED_LIN", c, acc="lin")
+    w.linear(members[0].linear, f"{prefix}SHARED_LIN", c, acc="lin")
   for k, m in enumerate(members):
-    tag = f"M{k}"
+    tag = f"{prefix}M{k}"
     if m.poly is not None:
       w.poly(m.poly, f"{tag}_POLY", c)
     elif m.kind is not estimators.Kind.NN and not shared:
       w.linear(m.linear, f"{tag}_LIN", c)
     if m.kind in (estimators.Kind.NN, estimators.Kind.LSANN):
       w.network(m.net, f"{tag}_NET")
-  if not w.code:
+  code, w.code = w.code[before:], w.code[:before]
+  if not code:
     raise errors.DataError("the estimator has neither a linear stage nor a network to export")
+  w.macs += a * len(members)
+  return ([f"  {{ /* {est.kind.value}" + (f", mean of {len(members)}" if est.members else "")
+           + " */", f"    float acc[{a}], lin[{a}];",
+           f"    for (int j = 0; j < {a}; ++j) {{ acc[j] = 0.0f; lin[j] = 0.0f; }}"]
+          + ["  " + line for line in code]
+          + [f"    for (int j = 0; j < {a}; ++j) {dest}[j] = lin[j] + acc[j] * "
+             f"{_literal(1.0 / len(members))};", "  }"])
+
+
+def write(est, out_dir, budget: Budget = Budget()) -> Report:
+  """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
+  c = est.n_inputs
+  a = _outputs(est)
+  w = _Writer()
+  members = est.members or (est,)
+  if est.parts:  # AUTO: each kept candidate into its own array, then each output from one
+    body = [f"  float part[{len(est.parts)}][{a}];"]
+    for k, part in enumerate(est.parts):
+      body += _compute(part, w, c, a, f"part[{k}]", f"P{k}_")
+    body += [f"  out[{j}] = part[{k}][{j}];" for j, k in enumerate(est.pick)]
+  else:
+    body = _compute(est, w, c, a, "out")
   names = est.info.outputs if est.info is not None else tuple(f"out{j}" for j in range(a))
   units = est.info.output_units if est.info is not None else ("",) * a
   inputs = est.info.inputs if est.info is not None else tuple(f"in{i}" for i in range(c))
@@ -283,7 +310,10 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
   header = "\n".join([
       "/* Force estimator exported by the tactile testbench (python -m calibrate export).",
       f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if est.members
-                                       else "") + "; float32 weights; C99, <math.h> only.",
+                                       else "")
+      + (": " + ", ".join(f"{comment_text(n)} from {est.parts[k].kind.value}"
+                          for n, k in zip(est.info.outputs, est.pick)) if est.parts else "")
+      + "; float32 weights; C99, <math.h> only.",
       " * Inputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
                                 for n, u in zip(inputs, in_units))
       + ("." if counts else "; as float: they were not integer counts when fitted."),
@@ -301,20 +331,15 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + [
           "",
           f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]) {{",
-          f"  float x[{c}], acc[{a}];",
+          f"  float x[{c}];",
           f"  for (int i = 0; i < {c}; ++i) "
-          f"x[i] = (float){'counts' if counts else 'inputs'}[i];",
-          f"  float lin[{a}];",
-          f"  for (int j = 0; j < {a}; ++j) {{ acc[j] = 0.0f; lin[j] = 0.0f; }}"] + w.code + [
-          f"  for (int j = 0; j < {a}; ++j) out[j] = lin[j] + acc[j] * "
-          f"{_literal(1.0 / len(members))};",
-          "}", ""])
+          f"x[i] = (float){'counts' if counts else 'inputs'}[i];"] + body + ["}", ""])
   out_dir = pathlib.Path(out_dir)
   out_dir.mkdir(parents=True, exist_ok=True)
   files.write_text(out_dir / "estimator.h", header)
   files.write_text(out_dir / "estimator.c", source)
-  stack = w.stack + 4 * (c + 2 * a)
-  macs = w.macs + a * len(members)
+  stack = w.stack + 4 * (c + 2 * a + a * len(est.parts))
+  macs = w.macs
   cycles = tuple(macs * mc + w.tanh * tc for mc, tc in zip(budget.mac_cycles, budget.tanh_cycles))
   return Report(macs, w.tanh, w.flash, stack, cycles, budget,
                 (str(out_dir / "estimator.h"), str(out_dir / "estimator.c")))

@@ -27,6 +27,7 @@ class Kind(enum.Enum):
   POLY = "POLY"
   LSANN = "LSANN"
   NN = "NN"
+  AUTO = "AUTO"  # per output, the candidate with the lowest held-out error (`fit_auto`)
 
 
 class OutOfRangeWarning(UserWarning):
@@ -142,10 +143,14 @@ class Estimator:
   info: Optional[Info] = None
   members: tuple["Estimator", ...] = ()
   poly: Optional[poly_lib.PolyFit] = None  # POLY with cross terms, in place of `linear`
+  parts: tuple["Estimator", ...] = ()  # AUTO: the candidates kept
+  pick: tuple[int, ...] = ()  # AUTO: for each output, the part that gives it
 
   @property
   def n_inputs(self) -> int:
-    one = self.members[0] if self.members else self
+    one = self.members[0] if self.members else self.parts[0] if self.parts else self
+    if one.parts:
+      return one.n_inputs
     if one.poly is not None:
       return len(one.poly.mean)
     return len(one.linear.mean) if one.linear is not None else one.net.w1.shape[1] - 1
@@ -168,17 +173,26 @@ class Estimator:
     """
     counts = linear.check_array(counts, "counts", self.n_inputs)
     self._check_range(counts)
-    if self.members:
-      each = np.stack([m._predict_one(counts) for m in self.members])
-      mean, spread = each.mean(axis=0), each.std(axis=0)
-    else:
-      mean, spread = self._predict_one(counts), None
+    mean, spread = self._mean_spread(counts)
     if not return_std:
       return mean
     sd = np.zeros_like(mean) if spread is None else spread
     if self.info is not None:
       sd = np.sqrt(sd ** 2 + self.info.residual_sd ** 2)
     return mean, sd
+
+  def _mean_spread(self, counts: np.ndarray):
+    """(N, A) prediction and the members' spread (None without members), unchecked."""
+    if self.parts:
+      each = [p._mean_spread(counts) for p in self.parts]
+      cols = np.arange(len(self.pick))
+      mean = np.stack([m for m, _ in each])[list(self.pick), :, cols].T
+      spreads = [np.zeros_like(m) if s is None else s for m, s in each]
+      return mean, np.stack(spreads)[list(self.pick), :, cols].T
+    if self.members:
+      each = np.stack([m._predict_one(counts) for m in self.members])
+      return each.mean(axis=0), each.std(axis=0)
+    return self._predict_one(counts), None
 
   def outside(self, counts: np.ndarray) -> np.ndarray:
     """(N, C) True where an input lies outside the range the estimator was fitted on (all
@@ -218,6 +232,12 @@ class Estimator:
       sub, sub_meta = m._arrays()
       arrays.update({f"m{k}_{name}": a for name, a in sub.items()})
       meta.setdefault("members", []).append(sub_meta)
+    for k, part in enumerate(self.parts):
+      sub, sub_meta = part._arrays()
+      arrays.update({f"p{k}_{name}": a for name, a in sub.items()})
+      meta.setdefault("parts", []).append(sub_meta)
+    if self.parts:
+      meta["pick"] = list(self.pick)
     if self.info is not None:
       arrays.update(self.info.arrays())
       meta["info"] = self.info.to_json()
@@ -263,6 +283,14 @@ def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
                                     if k.startswith(f"m{i}_")})
                     for i, m in enumerate(meta["members"]))
     return Estimator(kind, info=info, members=members)
+  if "parts" in meta:
+    parts = tuple(_from_saved(m, {k[len(f"p{i}_"):]: a for k, a in arrays.items()
+                                  if k.startswith(f"p{i}_")})
+                  for i, m in enumerate(meta["parts"]))
+    pick = tuple(int(k) for k in meta["pick"])
+    if kind is not Kind.AUTO or not all(0 <= k < len(parts) for k in pick):
+      raise ValueError("its parts do not fit its outputs")
+    return Estimator(kind, info=info, parts=parts, pick=pick)
   lin = net = None
   if "poly_coef" in arrays:
     p = poly_lib.PolyFit(*(arrays[f"poly_{f}"] for f in ("mean", "scale", "lo", "hi")),
@@ -507,6 +535,57 @@ def _ls_only(est: Estimator, outputs: np.ndarray) -> Estimator:
   w2 = np.where(outputs[:, None], 0.0, est.net.w2)  # a zero scaled output, mapped to 0 N
   return dataclasses.replace(est, net=dataclasses.replace(est.net, w2=w2,
                                                           y_scale=mlp.MinMax(lo, hi)))
+
+
+CANDIDATES = (Kind.LS, Kind.POLY, Kind.LSANN, Kind.NN)
+TIE = 0.01  # relative held-out RMSE within which `fit_auto` prefers the simpler candidate
+
+
+def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, folds: int = 5,
+             candidates: Sequence[Kind] = CANDIDATES, progress=None, **kwargs
+             ) -> tuple[Estimator, dict]:
+  """Every candidate fitted and cross-validated on the same grouped folds (POLY with cross
+  terms); for each output, the one with the lowest held-out RMSE (within `TIE` of it, the
+  simplest, in the order of `candidates`). Returns (the AUTO estimator, {method: {"cv_rmse": [per
+  output], "seconds": fit time}}). `kwargs` go to every `fit` (config, seed, names...)."""
+  import time
+  if groups is None or folds < 2:
+    raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
+                              "folds >= 2")
+  fitted, table = [], {}
+  for kind in candidates:
+    kind = Kind(kind)
+    t0 = time.perf_counter()
+    est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
+              progress=progress, **kwargs)
+    table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
+                         "seconds": time.perf_counter() - t0}
+    fitted.append(est)
+  rmse = np.array([table[e.kind.value]["cv_rmse"] for e in fitted])  # (K, A)
+  # the simplest candidate within 1 % of the lowest held-out RMSE: a difference smaller than
+  # that is not one the held-out data can tell (and a simpler model extrapolates tamer)
+  near = rmse <= rmse.min(axis=0) * (1 + TIE) + 1e-12 * np.abs(forces).max(axis=0)
+  best = np.argmax(near, axis=0)
+  used = sorted(set(best.tolist()))
+  parts = tuple(fitted[k] for k in used)
+  pick = tuple(used.index(k) for k in best)
+  cols = np.arange(forces.shape[1])
+  infos = [fitted[k].info for k in best]
+  first = parts[0].info
+  info = dataclasses.replace(
+      first, residual_sd=np.array([i.residual_sd[j] for j, i in zip(cols, infos)]),
+      interval_abs=np.column_stack([i.interval_abs[:, j] for j, i in zip(cols, infos)]),
+      settings={"method": Kind.AUTO.value, "candidates": [e.kind.value for e in fitted],
+                "seed": first.settings.get("seed"),
+                "integer_inputs": first.settings.get("integer_inputs")},
+      validation={**{k: v for k, v in first.validation.items()
+                     if k in ("split", "groups", "block", "folds")},
+                  "cv_rmse": rmse[best, cols].tolist(),
+                  "chosen": [fitted[k].kind.value for k in best],
+                  "candidates": {k: v["cv_rmse"] for k, v in table.items()},
+                  "ls_only": [n for j, n in enumerate(first.outputs)
+                              if n in infos[j].validation.get("ls_only", [])]})
+  return Estimator(Kind.AUTO, info=info, parts=parts, pick=pick), table
 
 
 def combine(members: Sequence[Estimator]) -> Estimator:

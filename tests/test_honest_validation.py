@@ -187,3 +187,54 @@ def test_recordings_with_different_columns_are_refused(tmp_path, capsys):
                    "--inputs", "s1", "--targets", "Fx", "--method", "ls", "--out",
                    str(tmp_path / "e.npz")]) == 2
   assert "differ from" in capsys.readouterr().err
+
+
+# --- method auto: every candidate on the same held-out groups, the best kept per output ------
+
+def _mixed(n=3000, seed=0):
+  """Three outputs, each best served by another method: a product of channels (POLY's cross
+  terms), a saturating nonlinearity (a network), a plain linear map (LS, the simplest)."""
+  rng = np.random.default_rng(seed)
+  x = rng.normal(size=(n, 4)) * [100, 5, 1, 30] + [2000, 0, 3, -50]
+  y = np.column_stack([x[:, 0] * x[:, 1] / 100, np.tanh(3 * (x[:, 2] - 3)) * 5,
+                       x @ [0.01, 1, 2, 0.1]])
+  return x, y
+
+
+def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_path):
+  x, y = _mixed()
+  g = splits.groups(len(x), "blocks", block=100)
+  est, table = estimators.fit_auto(x, y, g, 4, config=mlp.LMConfig(hidden=8, epochs=60),
+                                   seed=0)
+  chosen = est.info.validation["chosen"]
+  rmse = np.array([table[m]["cv_rmse"] for m in table])
+  for j, m in enumerate(chosen):  # the kept one is within 1 % of the best, and the simplest
+    k = list(table).index(m)
+    assert rmse[k, j] <= rmse[:, j].min() * (1 + estimators.TIE) + 1e-9
+    assert all(rmse[i, j] > rmse[:, j].min() * (1 + estimators.TIE) for i in range(k))
+  assert chosen[0] == "POLY" and chosen[2] == "LS"
+  est.save(tmp_path / "a.npz")
+  back = estimators.Estimator.load(tmp_path / "a.npz")
+  np.testing.assert_array_equal(back.predict(x[:50]), est.predict(x[:50]))
+  for j, m in enumerate(chosen):  # each output is its candidate's
+    part = est.parts[est.pick[j]]
+    assert part.kind.value == m
+    np.testing.assert_array_equal(est.predict(x[:50])[:, j], part.predict(x[:50])[:, j])
+
+
+def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path, capsys):
+  rng = np.random.default_rng(9)
+  names = ["time", "s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
+  for k in range(4):
+    x, y, _ = _recordings(1, rng, n=300)
+    csvfile.write(tmp_path / f"run{k}.csv", names,
+                  np.column_stack([np.arange(len(x)) * 0.01, x, y]))
+  data = ["--csv", str(tmp_path / "run*.csv"), "--inputs", "s*", "--targets", "Fx,Fy,Fz",
+          "--epochs", "20", "--hidden", "4", "--no-progress"]
+  assert cli.main(["compare", *data, "--out", str(tmp_path / "table.csv")]) == 0
+  out = capsys.readouterr().out
+  assert all(m in out for m in ("LS", "POLY", "LSANN", "NN")) and "*" in out
+  lines = (tmp_path / "table.csv").read_text().splitlines()
+  assert lines[0].startswith("method,Fx_cv_rmse") and lines[-1].startswith("kept,")
+  assert cli.main(["fit", *data, "--method", "auto", "--out", str(tmp_path / "a.npz")]) == 0
+  assert estimators.Estimator.load(tmp_path / "a.npz").kind is estimators.Kind.AUTO
