@@ -119,7 +119,12 @@ def _training_args(p: argparse.ArgumentParser) -> None:
   p.add_argument("--level", type=float, default=0.95,
                  help="interval level to report (default 0.95; predict --interval takes any)")
   p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
-  p.add_argument("--hidden", type=int, default=10, help="hidden units (default 10, the paper's)")
+  p.add_argument("--hidden", type=_hidden, default=10,
+                 help="hidden units (default 10, the paper's), or 'auto': the width of "
+                      f"{', '.join(map(str, WIDTHS))} with the lowest held-out error")
+  p.add_argument("--weight-decay", type=float, default=0.0,
+                 help="networks: the penalty lambda |w|^2 on the (scaled) weights, for data "
+                      "with few distinct load states (default 0, trainlm's)")
   p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
   p.add_argument("--degree", type=int, default=3,
                  help="poly: the highest degree (default 3); with cross-validation the degree "
@@ -128,6 +133,29 @@ def _training_args(p: argparse.ArgumentParser) -> None:
                  help="share held out for early stopping and the residual spread (0.15)")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+WIDTHS = (5, 10, 20, 40, 64)  # --hidden auto's candidates
+
+
+def _hidden(text: str):
+  """--hidden: a positive integer or 'auto'."""
+  if text.strip().lower() == "auto":
+    return "auto"
+  try:
+    return int(text)
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not a number of units or 'auto'") from None
+
+
+def _config(args):
+  """(network settings, widths to choose from) of the options."""
+  from calibrate import mlp
+  auto = args.hidden == "auto"
+  config = mlp.LMConfig(hidden=10 if auto else args.hidden, epochs=args.epochs,
+                        weight_decay=args.weight_decay)
+  config.validate()
+  return config, WIDTHS if auto else ()
 
 
 def _method(text: str) -> str:
@@ -172,14 +200,14 @@ def _training(args):
 
 
 def _auto(args, x, y, groups, names):
-  from calibrate import estimators, mlp
+  from calibrate import estimators
   from util.progress import progress_bar
   if groups.count < 2 or args.folds < 2:
     raise errors.SettingError("method auto chooses on held-out groups: give --folds 2 or "
                               "more, and data that make two groups or more")
+  config, widths = _config(args)
   return estimators.fit_auto(
-      x, y, groups, args.folds, config=mlp.LMConfig(hidden=args.hidden, epochs=args.epochs),
-      seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
+      x, y, groups, args.folds, config=config, widths=widths, seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
       progress=None if args.no_progress else progress_bar("training"), **names)
 
 
@@ -205,7 +233,7 @@ def compare(args) -> int:
 
 
 def fit(args) -> int:
-  from calibrate import estimators, mlp
+  from calibrate import estimators
   files.output_file(args.out, "--out", (".npz",))
   table, x, y, groups, names = _training(args)
   if args.method == "auto":
@@ -217,9 +245,13 @@ def fit(args) -> int:
     return 0
   from util.progress import progress_bar
   progress = None if args.no_progress else progress_bar("training")
-  config = mlp.LMConfig(hidden=args.hidden, epochs=args.epochs)
+  config, widths = _config(args)
+  if widths and groups.count < 2 or widths and args.folds < 2:
+    raise errors.SettingError("--hidden auto chooses on held-out groups: give --folds 2 or "
+                              "more, and data that make two groups or more")
   try:
     est = estimators.fit(estimators.Kind(args.method.upper()), x, y, config=config,
+                         widths=widths,
                          seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
                          ensemble=args.ensemble, progress=progress, **names,
                          groups=groups, folds=args.folds if groups.count >= 2 else 0,
@@ -254,6 +286,11 @@ def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
         f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
   v = info.validation
   print(f"validation: {groups.describe()}")
+  if "width_cv" in info.settings:
+    table = info.settings["width_cv"]
+    print(f"network width {info.settings['config']['hidden']} (held-out error, each output's "
+          f"MSE over its variance: " + ", ".join(f"{w}: {v:.3g}" for w, v in table.items())
+          + ")")
   if info.settings.get("cross"):
     print(f"polynomial: every product of total degree <= {info.settings['degree']}, ridge "
           f"{info.settings['ridge_per_sample']:g} per sample"

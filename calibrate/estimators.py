@@ -363,7 +363,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         input_units: Optional[Sequence[str]] = None,
         output_units: Optional[Sequence[str]] = None,
         groups: Optional[splits.Groups] = None, folds: int = 0,
-        cross: bool = False, ridge: Optional[float] = None) -> Estimator:
+        cross: bool = False, ridge: Optional[float] = None,
+        widths: Sequence[int] = ()) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -389,12 +390,18 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       paper's powers of each channel alone (`linear.fit_linear`).
     ridge: with `cross`, the ridge weight per training sample; None: chosen with the degree
       (1..`degree`) by grouped cross-validation over `folds` when given, else 0.
+    widths: for LSANN and NN with `folds`: hidden widths to try (e.g. 5..64); the one with
+      the lowest held-out error (summed over outputs, each relative to its spread) is kept,
+      in place of `config.hidden`.
     folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
       its held-out residuals size the estimator's interval (`Info.half_width`) and its
       RMSE per output is kept; an LSANN output whose network does not beat its LS stage
       there keeps the LS stage alone (said in `Info.validation["ls_only"]`). 0: none.
   """
   kind = Kind(kind)
+  if kind is Kind.AUTO:
+    raise errors.SettingError("method AUTO chooses among the others on held-out groups: call "
+                              "fit_auto(counts, forces, groups, folds)")
   counts, forces = linear.check_pair(counts, forces)
   if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
     raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
@@ -446,7 +453,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       return splits.holdout(n_or_groups, val_fraction, member_seed)
     return split_validation(n_or_groups, val_fraction, member_seed, val_block)
 
-  def one_fit(x, y, where, lin_given, fold_progress):
+  def one_fit(x, y, where, lin_given, fold_progress, config=config):
     """(estimator without info, held-out residual sd) fitted on x, y."""
     if kind is Kind.POLY and cross:
       tr, va = split(where, seed)
@@ -475,15 +482,22 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       members.append(Estimator(kind, lin, res.net, res))
     return members, sds
 
+  if kind in (Kind.LSANN, Kind.NN):
+    _warn_few_states(counts.shape[1], forces, config)
+  cv = None
+  if widths and folds and kind in (Kind.LSANN, Kind.NN):
+    config, cv, table = _choose_width(kind, counts, forces, groups, folds, seed, one_fit,
+                                      config, widths)
+    settings.update(config=dataclasses.asdict(config), width_cv=table)
   where = groups if groups is not None else len(counts)
-  members, sds = one_fit(counts, forces, where, linear_fit, progress)
+  members, sds = one_fit(counts, forces, where, linear_fit, progress, config)
   base = dict(input_lo=counts.min(axis=0), input_hi=counts.max(axis=0),
               output_lo=forces.min(axis=0), output_hi=forces.max(axis=0), samples=len(counts),
               data_sha256=data_digest(counts, forces), settings=settings, **given)
   extra = {}
   if folds:
-    residual, ls_only, stats = _cross_validate(kind, counts, forces, groups, folds, seed,
-                                               one_fit, linear_fit is not None)
+    residual, ls_only, stats = cv or _cross_validate(kind, counts, forces, groups, folds,
+                                                     seed, one_fit, config)
     if ls_only.any():
       members = [_ls_only(m, ls_only) for m in members]
     extra = dict(interval_abs=np.quantile(np.abs(residual), INTERVAL_GRID, axis=0),
@@ -501,15 +515,50 @@ def _subset(g: splits.Groups, idx: np.ndarray) -> splits.Groups:
   return splits.Groups(labels.astype(int), g.how, g.block)
 
 
-def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, lin_given):
-  """Grouped K-fold cross-validation of `one_fit`: (held-out residuals (N, A) of the
-  estimator as kept, per-output mask of LSANN outputs whose network lost to its LS stage,
-  statistics). The LS stage given to LSANN is refitted per fold (it saw every sample)."""
+def _warn_few_states(inputs: int, forces: np.ndarray, config: mlp.LMConfig) -> None:
+  """Warns when the targets take few distinct values (load states, told apart at 1 % of
+  each output's range) for the network's weights: it will interpolate between them."""
+  span = np.ptp(forces, axis=0)
+  states = len(np.unique(np.round(forces / np.where(span > 0, span, 1.0) * 100), axis=0))
+  weights = config.hidden * (inputs + 1) + forces.shape[1] * (config.hidden + 1)
+  if states < 2 * weights:
+    warnings.warn(f"the targets take only {states} distinct load states (told apart at 1 % of "
+                  f"each output's range) for a network of at least {weights} weights: it "
+                  f"will interpolate between them; compare LS and POLY (--method auto), or "
+                  f"regularise (--weight-decay)", FewStatesWarning, stacklevel=3)
+
+
+class FewStatesWarning(UserWarning):
+  """Training targets with few distinct values for the network's size."""
+
+
+def _choose_width(kind, counts, forces, groups, folds, seed, one_fit, config, widths):
+  """(config with the width of lowest held-out error, that width's cross-validation, table
+  {width: held-out error}); the error sums each output's held-out MSE over its variance."""
+  spread = np.var(forces, axis=0)
+  spread = np.where(spread > 0, spread, 1.0)
+  best, table = None, {}
+  for w in widths:
+    cfg = dataclasses.replace(config, hidden=int(w))
+    cfg.validate()
+    cv = _cross_validate(kind, counts, forces, groups, folds, seed, one_fit, cfg)
+    score = float(np.sum(np.square(cv[2]["cv_rmse"]) / spread))
+    table[str(int(w))] = score
+    if best is None or score < best[0]:
+      best = (score, cfg, cv)
+  return best[1], best[2], table
+
+
+def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, config):
+  """Grouped K-fold cross-validation of `one_fit` with `config`: (held-out residuals (N, A)
+  of the estimator as kept, per-output mask of LSANN outputs whose network lost to its LS
+  stage, statistics). The LS stage given to LSANN is refitted per fold (it saw every
+  sample)."""
   residual = np.zeros_like(forces)
   ls_residual = np.zeros_like(forces)
   folds = splits.folds(groups, k, seed)
   for tr, va in folds:
-    fitted, _ = one_fit(counts[tr], forces[tr], _subset(groups, tr), None, None)
+    fitted, _ = one_fit(counts[tr], forces[tr], _subset(groups, tr), None, None, config)
     est = fitted[0] if len(fitted) == 1 else Estimator(kind, members=tuple(fitted))
     residual[va] = forces[va] - est.predict(counts[va])
     if kind is Kind.LSANN:

@@ -18,7 +18,7 @@ def _data(n=600, seed=0):
   return v, f
 
 
-@pytest.mark.parametrize("kind", list(estimators.Kind))
+@pytest.mark.parametrize("kind", estimators.CANDIDATES)  # AUTO: test_honest_validation
 def test_save_load_round_trip(kind, tmp_path):
   v, f = _data()
   est = estimators.fit(kind, v, f, config=FAST, seed=1)

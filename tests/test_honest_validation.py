@@ -238,3 +238,53 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   assert lines[0].startswith("method,Fx_cv_rmse") and lines[-1].startswith("kept,")
   assert cli.main(["fit", *data, "--method", "auto", "--out", str(tmp_path / "a.npz")]) == 0
   assert estimators.Estimator.load(tmp_path / "a.npz").kind is estimators.Kind.AUTO
+
+
+# --- networks on few load states: a warning, a chosen width, a penalty ---------------------
+
+def _static_states(states=48, per=150, seed=0):
+  """A sensor read at `states` static wrenches, `per` near-identical samples each (a dead
+  weight in several poses): few distinct targets however many samples."""
+  rng = np.random.default_rng(seed)
+  wrench = rng.uniform(-5, 5, (states, 3))
+  y = np.repeat(wrench, per, axis=0) + rng.normal(0, 0.005, (states * per, 3))
+  x = y @ rng.normal(size=(3, 6)) * 100 + 2000 + rng.normal(0, 2, (states * per, 6))
+  return x, y, np.repeat(np.arange(states), per)
+
+
+def test_a_network_on_few_load_states_is_warned_about_with_the_count():
+  x, y, _ = _static_states()
+  with pytest.warns(estimators.FewStatesWarning, match=r"only \d+ distinct load states"):
+    estimators.fit("NN", x, y, config=mlp.LMConfig(hidden=10, epochs=3))
+  x2 = np.random.default_rng(1).uniform(0, 4000, (5000, 6))  # continuous loads: no warning
+  with warnings.catch_warnings():
+    warnings.simplefilter("error", estimators.FewStatesWarning)
+    estimators.fit("NN", x2, x2[:, :3] @ np.eye(3), config=mlp.LMConfig(hidden=10, epochs=3))
+
+
+def test_the_width_kept_is_the_one_with_the_lowest_held_out_error():
+  x, y, rec = _static_states()
+  g = splits.groups(len(x), "recordings", rec)
+  with warnings.catch_warnings():
+    warnings.simplefilter("ignore", estimators.FewStatesWarning)
+    est = estimators.fit("NN", x, y, groups=g, folds=4, widths=(3, 10, 30),
+                         config=mlp.LMConfig(epochs=40))
+  table = est.info.settings["width_cv"]
+  assert set(table) == {"3", "10", "30"}
+  assert est.info.settings["config"]["hidden"] == int(min(table, key=table.get))
+  assert est.net.w1.shape[0] == est.info.settings["config"]["hidden"]
+
+
+def test_weight_decay_shrinks_the_weights_and_zero_is_trainlm_exactly():
+  rng = np.random.default_rng(2)
+  x = rng.uniform(-1, 1, (400, 3))
+  y = np.column_stack([np.sin(3 * x[:, 0]), x[:, 1] * x[:, 2]])
+  base = mlp.LMConfig(hidden=12, epochs=40, max_fail=40)
+  plain = mlp.train(x[:300], y[:300], x[300:], y[300:], base, 0)
+  zero = mlp.train(x[:300], y[:300], x[300:], y[300:],
+                   mlp.LMConfig(hidden=12, epochs=40, max_fail=40, weight_decay=0.0), 0)
+  decayed = mlp.train(x[:300], y[:300], x[300:], y[300:],
+                      mlp.LMConfig(hidden=12, epochs=40, max_fail=40, weight_decay=1.0), 0)
+  np.testing.assert_array_equal(plain.net.w1, zero.net.w1)
+  norm = [np.sum(r.net.w1 ** 2) + np.sum(r.net.w2 ** 2) for r in (plain, decayed)]
+  assert norm[1] < 0.5 * norm[0], norm
