@@ -596,7 +596,7 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
   """Every candidate fitted and cross-validated on the same grouped folds (POLY with cross
   terms); for each output, the one with the lowest held-out RMSE (within `TIE` of it, the
   simplest, in the order of `candidates`). Returns (the AUTO estimator, {method: {"cv_rmse": [per
-  output], "seconds": fit time}}). `kwargs` go to every `fit` (config, seed, names...)."""
+  output], "seconds": fit time, "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...)."""
   import time
   if groups is None or folds < 2:
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
@@ -608,7 +608,7 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
     est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
               progress=progress, **kwargs)
     table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
-                         "seconds": time.perf_counter() - t0}
+                         "seconds": time.perf_counter() - t0, "estimator": est}
     fitted.append(est)
   rmse = np.array([table[e.kind.value]["cv_rmse"] for e in fitted])  # (K, A)
   # the simplest candidate within 1 % of the lowest held-out RMSE: a difference smaller than

@@ -129,9 +129,9 @@ def test_lsann_keeps_its_ls_stage_where_its_network_does_not_help():
   """The truth is linear in the inputs: any residual network only fits noise, so on held-out
   recordings it loses to its LS stage, which then stands alone on those outputs."""
   rng = np.random.default_rng(6)
-  x, y, rec = _recordings(8, rng, n=500)
-  est = estimators.fit("LSANN", x, y, groups=splits.groups(len(x), "auto", rec), folds=4,
-                       config=mlp.LMConfig(hidden=20, epochs=60, max_fail=60), seed=1)
+  x, y, rec = _recordings(6, rng, n=300)
+  est = estimators.fit("LSANN", x, y, groups=splits.groups(len(x), "auto", rec), folds=3,
+                       config=mlp.LMConfig(hidden=20, epochs=40, max_fail=40), seed=1)
   dropped = est.info.validation["ls_only"]
   assert dropped, est.info.validation
   cols = [est.info.outputs.index(n) for n in dropped]
@@ -202,9 +202,9 @@ def _mixed(n=3000, seed=0):
 
 
 def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_path):
-  x, y = _mixed()
+  x, y = _mixed(1500)
   g = splits.groups(len(x), "blocks", block=100)
-  est, table = estimators.fit_auto(x, y, g, 4, config=mlp.LMConfig(hidden=8, epochs=60),
+  est, table = estimators.fit_auto(x, y, g, 3, config=mlp.LMConfig(hidden=8, epochs=40),
                                    seed=0)
   chosen = est.info.validation["chosen"]
   rmse = np.array([table[m]["cv_rmse"] for m in table])
@@ -226,11 +226,11 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   rng = np.random.default_rng(9)
   names = ["time", "s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
   for k in range(4):
-    x, y, _ = _recordings(1, rng, n=300)
+    x, y, _ = _recordings(1, rng, n=150)
     csvfile.write(tmp_path / f"run{k}.csv", names,
                   np.column_stack([np.arange(len(x)) * 0.01, x, y]))
   data = ["--csv", str(tmp_path / "run*.csv"), "--inputs", "s*", "--targets", "Fx,Fy,Fz",
-          "--epochs", "20", "--hidden", "4", "--no-progress"]
+          "--epochs", "10", "--hidden", "4", "--folds", "2", "--no-progress"]
   assert cli.main(["compare", *data, "--out", str(tmp_path / "table.csv")]) == 0
   out = capsys.readouterr().out
   assert all(m in out for m in ("LS", "POLY", "LSANN", "NN")) and "*" in out
@@ -267,8 +267,9 @@ def test_the_width_kept_is_the_one_with_the_lowest_held_out_error():
   g = splits.groups(len(x), "recordings", rec)
   with warnings.catch_warnings():
     warnings.simplefilter("ignore", estimators.FewStatesWarning)
-    est = estimators.fit("NN", x, y, groups=g, folds=4, widths=(3, 10, 30),
-                         config=mlp.LMConfig(epochs=40))
+    est = estimators.fit("NN", x[::3], y[::3], groups=splits.groups(len(x[::3]), "recordings",
+                                                                    rec[::3]),
+                         folds=3, widths=(3, 10, 30), config=mlp.LMConfig(epochs=20))
   table = est.info.settings["width_cv"]
   assert set(table) == {"3", "10", "30"}
   assert est.info.settings["config"]["hidden"] == int(min(table, key=table.get))

@@ -1,0 +1,236 @@
+"""real_recordings: every calibrator and the baselines users would pick, scored as on real
+recordings: trained on some recordings, tested on others never seen.
+
+Recordings from real rigs differ from one random train/test split of one session: samples
+are autocorrelated (a random validation sample sits between training samples), offsets and
+drift differ between recordings, and the test loads may reach past the training range. Both
+simulated sensors are cut into such recordings:
+  - footpad: every episode of the protocol's session (one path at one depth, with the
+    session's thermal drift and the dies' hysteresis) is a recording; the calibrators see
+    the training session's episodes at the shallower depths only (0.5 and 1 mm), and are
+    tested on every episode of the test session, the 1.5 mm ones beyond the training range;
+  - shell: the calibration and test runs with stray infrared light on (an offset wandering
+    over seconds, `stray_ir`), cut into 10 s recordings.
+Every method of `calibrate` (LS, POLY with cross terms, LSANN, NN, and `auto`, which keeps the
+best per axis on held-out recordings) is fitted with grouped cross-validation over the
+training recordings; beside it scikit-learn's LinearRegression, PolynomialFeatures(3) with
+RidgeCV over the same grouped folds, and MLPRegressor(64, 64) with early stopping. For each:
+NRMSE and R^2 per axis on the test recordings, fit seconds, and for this project's methods
+the share of test samples inside the 95 % interval, beside what the LSANN paper's split
+(single validation samples at random, +-1.96 sd of their residuals) would have promised.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Literal
+
+import numpy as np
+
+from benchmarks.registry import register
+from util import fields
+from util.fields import setting
+
+SHELL_CHUNK = 10.0  # s: the shell's runs cut into recordings this long
+FOOTPAD_TRAIN_DEPTHS = (0.0005, 0.001)  # m: the depths the calibrators see
+
+
+@fields.declared
+@dataclasses.dataclass(frozen=True)
+class RealRecordings:
+  """Settings of the benchmark.
+
+  Attributes:
+    rigs: the sensors.
+    folds: grouped cross-validation folds over the training recordings.
+    level: the interval's level.
+    epochs: epoch cap of the networks.
+    baselines: also scikit-learn's LinearRegression, PolynomialFeatures + RidgeCV and
+      MLPRegressor.
+  """
+  rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
+  folds: int = setting(5, "[2, 20]")
+  level: float = setting(0.95, "[0.5, 0.999]")
+  epochs: int = setting(300, "[1, 10000]")
+  baselines: bool = True
+
+  def relations(self):
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield bool(self.rigs), "rigs", "footpad, shell or both (not none)", self.rigs
+
+
+def settings(quick: bool, seed: int) -> RealRecordings:
+  return RealRecordings(epochs=100) if quick else RealRecordings()
+
+
+@dataclasses.dataclass(frozen=True)
+class Data:
+  """One rig's recordings: training and test inputs (N, C), targets (N, A), the recording
+  of every sample, the axes' names."""
+  x: np.ndarray
+  y: np.ndarray
+  rec: np.ndarray
+  xt: np.ndarray
+  yt: np.ndarray
+  rect: np.ndarray
+  axes: tuple[str, ...]
+  what: str
+
+
+def _footpad(ctx) -> Data:
+  from benchmarks import footpad
+  from sim.footpad import protocol
+  recs = {k: r for k, (r, _) in footpad.recordings(ctx, protocol.base(ctx.quick,
+                                                                      ctx.seed)).items()}
+  train, test = recs["train"].on_path(), recs["test"].on_path()
+  keep = np.isin(np.round(train.z_level, 6), FOOTPAD_TRAIN_DEPTHS)
+  step = 10  # 1 kHz to 100 Hz: what a user's logger keeps, and the fits stay quick
+  tr = np.flatnonzero(keep)[::step]
+  te = np.arange(len(test))[::step]
+  return Data(train.counts[tr], train.wrench[tr, :3], train.episode[tr], test.counts[te],
+              test.wrench[te, :3], test.episode[te], ("X", "Y", "Z"),
+              f"footpad: {len(np.unique(train.episode[tr]))} training episodes at 0.5-1 mm, "
+              f"{len(np.unique(test.episode[te]))} test episodes at 0.5-1.5 mm, every 10th "
+              f"sample")
+
+
+def _shell(ctx) -> Data:
+  from benchmarks import shell
+  from sim.shell import protocol, scene as scene_lib
+  board = protocol.base(ctx.quick, ctx.seed)
+  board = dataclasses.replace(board, effects=tuple(dict.fromkeys(board.effects + ("stray_ir",))))
+  _, runs, _ = shell.recordings(ctx, board)
+  cal, test = runs["calibration"], runs["test"]
+  chunk = int(SHELL_CHUNK * scene_lib.FRAME_RATE)
+  return Data(cal.counts, cal.wrench, np.arange(len(cal.counts)) // chunk, test.counts,
+              test.wrench, np.arange(len(test.counts)) // chunk,
+              ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
+              f"shell with stray_ir: {len(cal.counts) // chunk} training and "
+              f"{-(-len(test.counts) // chunk)} test recordings of {SHELL_CHUNK:g} s")
+
+
+def _scores(pred: np.ndarray, truth: np.ndarray) -> dict:
+  from calibrate import metrics
+  return {"nrmse_pct": metrics.nrmse_pct(pred, truth).tolist(),
+          "r2_pct": metrics.r2_pct(pred, truth).tolist()}
+
+
+def _ours(ctx, d: Data) -> dict:
+  """This project's methods, with grouped cross-validation; and each fitted as the LSANN paper
+  splits (single samples) for the interval it would have promised."""
+  import warnings
+  from calibrate import estimators, mlp, splits
+  s = ctx.settings
+  groups = splits.groups(len(d.x), "recordings", d.rec)
+  config = mlp.LMConfig(epochs=s.epochs)
+  out = {}
+  with warnings.catch_warnings():
+    warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+    t0 = time.perf_counter()
+    auto, table = estimators.fit_auto(d.x, d.y, groups, s.folds, config=config, seed=ctx.seed,
+                                      progress=ctx.progress("networks"))
+    auto_s = time.perf_counter() - t0
+    for name, row in list(table.items()) + [("auto", {"estimator": auto, "seconds": auto_s})]:
+      est = row["estimator"]
+      pred = est.predict(d.xt)
+      half = est.info.half_width(s.level)
+      r = _scores(pred, d.yt)
+      inside = np.abs(pred - d.yt) <= half
+      r["coverage_pct"] = (100 * np.mean(inside, axis=0)).tolist()
+      # the interval is sized on the training range: beyond it (target extrapolation) it
+      # cannot hold, so its coverage is given apart there
+      beyond = (d.yt < d.y.min(axis=0)) | (d.yt > d.y.max(axis=0))
+      r["coverage_in_range_pct"] = [float(100 * inside[~beyond[:, j], j].mean())
+                                    for j in range(len(d.axes))]
+      r["truth_beyond_training_pct"] = (100 * beyond.mean(axis=0)).tolist()
+      r["seconds"] = row["seconds"]
+      if name != "auto":  # the paper's split: what its +-1.96 sd promised
+        kind = estimators.Kind(name)
+        flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed,
+                              cross=kind is estimators.Kind.POLY)
+        r["single_split_coverage_pct"] = (100 * np.mean(
+            np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
+      else:
+        r["chosen"] = auto.info.validation["chosen"]
+      out[name] = r
+  return out
+
+
+def _baselines(ctx, d: Data) -> dict:
+  """scikit-learn's estimators as a user would set them up."""
+  import warnings
+  from sklearn.exceptions import ConvergenceWarning
+  from sklearn.linear_model import LinearRegression, RidgeCV
+  from sklearn.model_selection import GroupKFold
+  from sklearn.neural_network import MLPRegressor
+  from sklearn.pipeline import make_pipeline
+  from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+  folds = list(GroupKFold(n_splits=min(ctx.settings.folds, len(np.unique(d.rec)))).split(
+      d.x, groups=d.rec))
+  models = {
+      "sklearn LinearRegression": LinearRegression(),
+      "sklearn Poly3+RidgeCV": make_pipeline(
+          StandardScaler(), PolynomialFeatures(3, include_bias=False), StandardScaler(),
+          RidgeCV(alphas=np.logspace(-6, 3, 10), cv=folds)),
+      "sklearn MLP(64,64)": make_pipeline(
+          StandardScaler(), MLPRegressor(hidden_layer_sizes=(64, 64), early_stopping=True, max_iter=500,
+                                         random_state=ctx.seed % 2**32))}
+  out = {}
+  for name, model in models.items():
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+      warnings.simplefilter("ignore", ConvergenceWarning)
+      # the MLP scales its targets itself poorly: give it standardised ones
+      mu, sd = d.y.mean(axis=0), d.y.std(axis=0)
+      model.fit(d.x, (d.y - mu) / sd)
+    seconds = time.perf_counter() - t0
+    r = _scores(model.predict(d.xt) * sd + mu, d.yt)
+    r["seconds"] = seconds
+    out[name] = r
+  return out
+
+
+@register("real_recordings", "every calibrator and scikit-learn's baselines trained on some "
+          "recordings and tested on others: per-axis error, the 95 % interval's coverage "
+          "against the paper's split's, fit time", settings=settings,
+          tags=("footpad", "shell", "calibration"))
+def run(ctx):
+  from benchmarks import outputs
+  from calibrate import metrics
+  data, rows = {}, []
+  for rig in ctx.settings.rigs:
+    d = _footpad(ctx) if rig == "footpad" else _shell(ctx)
+    results = _ours(ctx, d)
+    if ctx.settings.baselines:
+      results.update(_baselines(ctx, d))
+    _print(ctx, rig, d, results)
+    data[rig] = {"what": d.what, "results": results}
+    per_axis = ("nrmse_pct", "r2_pct", "coverage_pct", "coverage_in_range_pct",
+                "single_split_coverage_pct", "truth_beyond_training_pct")
+    rows += metrics.scored(rig, {m: {ax: {k: r[k][j] for k in per_axis if k in r}
+                                     for j, ax in enumerate(d.axes)}
+                                 for m, r in results.items()})
+    rows += [outputs.Row(rig, m, "", "fit_seconds", r["seconds"]) for m, r in results.items()]
+  return outputs.Result(data, tuple(rows))
+
+
+def _print(ctx, rig: str, d: Data, results: dict) -> None:
+  level = ctx.settings.level
+  ctx.print(f"\n{d.what}")
+  first = next(iter(results.values()))
+  ctx.print("test truth beyond the training range, % per axis: " + " ".join(
+      f"{v:.1f}" for v in first["truth_beyond_training_pct"]) + "; interval coverage there "
+      "excluded: " + "; ".join(f"{m} " + " ".join(f"{v:.1f}" for v in r["coverage_in_range_pct"])
+                               for m, r in results.items() if "coverage_in_range_pct" in r))
+  ctx.print(f"{'method':26s} {'NRMSE % per axis':>{7 * len(d.axes)}s}  "
+            f"{'in ' + format(level, '.0%') + ' interval, per axis':>{7 * len(d.axes)}s}  "
+            f"{'+-1.96 sd (paper split)':>{7 * len(d.axes)}s} {'fit s':>7s}")
+  for m, r in results.items():
+    blank = " " * (7 * len(d.axes) - 1)
+    cover = " ".join(f"{v:6.1f}" for v in r.get("coverage_pct", [])) or blank
+    naive = " ".join(f"{v:6.1f}" for v in r.get("single_split_coverage_pct", [])) or blank
+    ctx.print(f"{m:26s} " + " ".join(f"{v:6.2f}" for v in r["nrmse_pct"]) + f"  {cover}  "
+              f"{naive} {r['seconds']:7.1f}" + (f"  kept: {', '.join(r['chosen'])}"
+                                                  if "chosen" in r else ""))
+
