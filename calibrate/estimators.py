@@ -566,11 +566,15 @@ def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, config):
   rmse = np.sqrt(np.mean(residual ** 2, axis=0))
   ls_only = np.zeros(forces.shape[1], bool)
   stats = {"split": groups.how, "groups": groups.count, "block": groups.block,
-           "folds": len(folds), "cv_rmse": rmse.tolist()}
+           "folds": len(folds), "cv_rmse": rmse.tolist(),
+           "cv_fold_rmse": [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
+                            for _, va in folds]}
   if kind is Kind.LSANN:
     ls_rmse = np.sqrt(np.mean(ls_residual ** 2, axis=0))
     ls_only = ls_rmse <= rmse
     residual[:, ls_only] = ls_residual[:, ls_only]
+    stats["cv_fold_rmse"] = [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
+                             for _, va in folds]
     stats.update(cv_rmse_ls_stage=ls_rmse.tolist(),
                  cv_rmse=np.where(ls_only, ls_rmse, rmse).tolist())
   return residual, ls_only, stats
@@ -594,8 +598,8 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
              candidates: Sequence[Kind] = CANDIDATES, progress=None, **kwargs
              ) -> tuple[Estimator, dict]:
   """Every candidate fitted and cross-validated on the same grouped folds (POLY with cross
-  terms); for each output, the one with the lowest held-out RMSE (within `TIE` of it, the
-  simplest, in the order of `candidates`). Returns (the AUTO estimator, {method: {"cv_rmse": [per
+  terms); for each output, the simplest (in the order of `candidates`) whose held-out RMSE
+  is within one standard error over the folds (or `TIE`) of the lowest. Returns (the AUTO estimator, {method: {"cv_rmse": [per
   output], "seconds": fit time, "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...)."""
   import time
   if groups is None or folds < 2:
@@ -611,14 +615,20 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
                          "seconds": time.perf_counter() - t0, "estimator": est}
     fitted.append(est)
   rmse = np.array([table[e.kind.value]["cv_rmse"] for e in fitted])  # (K, A)
-  # the simplest candidate within 1 % of the lowest held-out RMSE: a difference smaller than
-  # that is not one the held-out data can tell (and a simpler model extrapolates tamer)
-  near = rmse <= rmse.min(axis=0) * (1 + TIE) + 1e-12 * np.abs(forces).max(axis=0)
+  # the one-standard-error rule (Hastie, Tibshirani & Friedman, Elements of Statistical
+  # Learning, Sec. 7.10): the simplest candidate whose held-out RMSE is within one standard
+  # error (over the folds) of the lowest, and within `TIE` in any case: a smaller difference
+  # is not one the held-out groups can tell, and a simpler model extrapolates tamer
+  folds_rmse = np.array([e.info.validation["cv_fold_rmse"] for e in fitted])  # (K, F, A)
+  lowest = np.argmin(rmse, axis=0)
+  cols = np.arange(forces.shape[1])
+  se = folds_rmse[lowest, :, cols].std(axis=1, ddof=1) / np.sqrt(folds_rmse.shape[1])
+  near = rmse <= rmse[lowest, cols] + np.maximum(se, TIE * rmse[lowest, cols]) \
+      + 1e-12 * np.abs(forces).max(axis=0)
   best = np.argmax(near, axis=0)
   used = sorted(set(best.tolist()))
   parts = tuple(fitted[k] for k in used)
   pick = tuple(used.index(k) for k in best)
-  cols = np.arange(forces.shape[1])
   infos = [fitted[k].info for k in best]
   first = parts[0].info
   info = dataclasses.replace(

@@ -10,7 +10,9 @@ simulated sensors are cut into such recordings:
     the training session's episodes at the shallower depths only (0.5 and 1 mm), and are
     tested on every episode of the test session, the 1.5 mm ones beyond the training range;
   - shell: the calibration and test runs with stray infrared light on (an offset wandering
-    over seconds, `stray_ir`), cut into 10 s recordings.
+    over seconds, `stray_ir`), cut into 10 s recordings;
+  - shell_static: a weight in a few poses: 48 static wrenches held 2 s each (about 200
+    near-identical samples per state), tested on 48 others.
 Every method of `calibrate` (LS, POLY with cross terms, LSANN, NN, and `auto`, which keeps the
 best per axis on held-out recordings) is fitted with grouped cross-validation over the
 training recordings; beside it scikit-learn's LinearRegression, PolynomialFeatures(3) with
@@ -33,6 +35,7 @@ from util import fields
 from util.fields import setting
 
 SHELL_CHUNK = 10.0  # s: the shell's runs cut into recordings this long
+STATES, HOLD = 48, 2.0  # the static dataset: load states, and seconds each is held
 FOOTPAD_TRAIN_DEPTHS = (0.0005, 0.001)  # m: the depths the calibrators see
 
 
@@ -42,14 +45,16 @@ class RealRecordings:
   """Settings of the benchmark.
 
   Attributes:
-    rigs: the sensors.
+    rigs: the datasets: the footpad's episodes, the shell's runs in 10 s recordings, and
+      the shell at few static load states.
     folds: grouped cross-validation folds over the training recordings.
     level: the interval's level.
     epochs: epoch cap of the networks.
     baselines: also scikit-learn's LinearRegression, PolynomialFeatures + RidgeCV and
       MLPRegressor.
   """
-  rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
+  rigs: tuple[Literal["footpad", "shell", "shell_static"], ...] = ("footpad", "shell",
+                                                                    "shell_static")
   folds: int = setting(5, "[2, 20]")
   level: float = setting(0.95, "[0.5, 0.999]")
   epochs: int = setting(300, "[1, 10000]")
@@ -57,7 +62,7 @@ class RealRecordings:
 
   def relations(self):
     """Checks between fields (`fields.check` runs them after each field's own range)."""
-    yield bool(self.rigs), "rigs", "footpad, shell or both (not none)", self.rigs
+    yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static", self.rigs
 
 
 def settings(quick: bool, seed: int) -> RealRecordings:
@@ -108,6 +113,28 @@ def _shell(ctx) -> Data:
               ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
               f"shell with stray_ir: {len(cal.counts) // chunk} training and "
               f"{-(-len(test.counts) // chunk)} test recordings of {SHELL_CHUNK:g} s")
+
+
+def _shell_static(ctx) -> Data:
+  """A dead weight in a few poses: `STATES` static wrenches in the hand's box (scaled into the
+  sensors' window), each held `HOLD` s at the static pose, read with noise and stray IR;
+  every state its own recording, the test states drawn apart (none seen in training)."""
+  from sim.shell import scene as scene_lib
+  board = scene_lib.ShellScene(effects=scene_lib.ShellScene().effects + ("stray_ir",))
+  rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(7,)))
+  lim = np.array([board.force_range] * 3 + [board.torque_range] * 3)
+  frames = int(HOLD * scene_lib.FRAME_RATE)
+  out = []
+  for part, seed in zip(("train", "test"), rng.integers(0, 2**31, 2)):
+    states = rng.uniform(-lim, lim, (STATES, 6))
+    states *= scene_lib.window_scale(board.params, states, board.sensor)[:, None]
+    loads = np.repeat(states, frames, axis=0)
+    _, counts = scene_lib.sense(board, scene_lib.static_pose(board.params, loads), int(seed))
+    out.append((counts, loads, np.repeat(np.arange(STATES), frames)))
+  (x, y, rec), (xt, yt, rect) = out
+  return Data(x, y, rec, xt, yt, rect, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
+              f"shell, static: {STATES} load states held {HOLD:g} s each (a weight in a few "
+              f"poses), {STATES} other states to test, stray_ir on")
 
 
 def _scores(pred: np.ndarray, truth: np.ndarray) -> dict:
@@ -200,7 +227,7 @@ def run(ctx):
   from calibrate import metrics
   data, rows = {}, []
   for rig in ctx.settings.rigs:
-    d = _footpad(ctx) if rig == "footpad" else _shell(ctx)
+    d = {"footpad": _footpad, "shell": _shell, "shell_static": _shell_static}[rig](ctx)
     results = _ours(ctx, d)
     if ctx.settings.baselines:
       results.update(_baselines(ctx, d))
