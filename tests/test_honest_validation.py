@@ -267,7 +267,6 @@ def test_a_network_on_few_load_states_is_warned_about_with_the_count():
 
 def test_the_width_kept_is_the_one_with_the_lowest_held_out_error():
   x, y, rec = _static_states()
-  g = splits.groups(len(x), "recordings", rec)
   with warnings.catch_warnings():
     warnings.simplefilter("ignore", estimators.FewStatesWarning)
     est = estimators.fit("NN", x[::3], y[::3], groups=splits.groups(len(x[::3]), "recordings",
