@@ -100,10 +100,12 @@ def check_effects(names, known: dict[str, Effect]) -> tuple[str, ...]:
   return tuple(sorted(set(names)))
 
 
-def rng_for(seed: int, effect: str) -> np.random.Generator:
-  """The random stream of one effect in one run: SeedSequence(seed) spawned by the name."""
-  return np.random.default_rng(np.random.SeedSequence(seed,
-                                                      spawn_key=(zlib.crc32(effect.encode()),)))
+def rng_for(seed: int, effect: str, stream: int | None = None) -> np.random.Generator:
+  """The random stream of one effect in one run: SeedSequence(seed) spawned by the name, and
+  by `stream` (the recording's identity) when given, so two recordings of one run share no
+  noise or drift draw while the pad's own unit spread (drawn without it) stays one pad."""
+  key = (zlib.crc32(effect.encode()),) + (() if stream is None else (int(stream),))
+  return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
 def wander(rng: np.random.Generator, shape: tuple[int, int], rms: float,

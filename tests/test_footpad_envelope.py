@@ -117,16 +117,21 @@ def corners():
 
 @pytest.mark.slow
 def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corners):
-  """The CI trend check of the envelope: the paper's shear R2 (Table I) lies inside the span
-  of the sourced ranges, above the corner with the most history, below the one with none."""
+  """The CI trend check of the envelope: the paper's shear and normal R2 of the networks
+  (Table I) lie inside the span of the sourced ranges, above the corner with the most
+  history, below the one with none (measured: shear 99.83-99.97 % and -110-39 %; Z
+  99.98-99.99 % and 97.6-97.8 %, each recording drawing its own noise and drift)."""
   from benchmarks.footpad import table
   least, most = corners
   for m in ("LSANN", "NN"):
     for ax in ("X", "Y"):
       paper = table.PAPER_TABLE1[m][ax][2]
       assert most[m][ax]["r2_pct"] < paper < least[m][ax]["r2_pct"], (m, ax)
-  for m in ("LS", "LSANN", "NN"):  # normal force stays estimated well at either corner
-    assert most[m]["Z"]["r2_pct"] > 99.0 and least[m]["Z"]["r2_pct"] > 99.0, m
+  for m in ("LSANN", "NN"):  # the normal force too, now that the test recording drifts
+    paper = table.PAPER_TABLE1[m]["Z"][2]  # on its own: the networks fit the training drift
+    assert most[m]["Z"]["r2_pct"] < paper < least[m]["Z"]["r2_pct"], (m, "Z")
+  # the linear fit of the normal force stays good at either corner (a sum over the dies)
+  assert most["LS"]["Z"]["r2_pct"] > 99.0 and least["LS"]["Z"]["r2_pct"] > 99.0
 
 
 def test_a_quarter_turn_swaps_the_layouts_axes_and_twice_is_none():

@@ -125,3 +125,29 @@ def test_thermal_drift_has_its_stated_size_and_time():
   rel = sensor_chain.counts_to_pressure(counts, gain_only) / 100e3 - 1
   assert np.std(rel) == pytest.approx(0.015, rel=0.1)
 
+
+
+def test_two_recordings_of_one_run_share_no_noise_or_drift_draw():
+  """Each recording keys its streams by its identity: the training and test recordings of
+  one protocol run differ in noise and drift (|correlation| of their noise rows and drift
+  increments < 0.05), the dies' unit spread stays the pad's, and each stream is reproducible."""
+  from sim.footpad import layer, protocol, scene
+  streams = []
+  for s in protocol.scenes(protocol.base(True, 0)).values():
+    streams.append(scene.stream_of(scene.episodes(s, layer.die_kernel(s.params, s.kernel))))
+  assert streams[0] != streams[1]
+  n = 200_000
+  zero = np.zeros((n, 6))
+  adc = sensor_chain.AdcConfig(drift_time=30.0)
+
+  def draw(effect, stream):
+    counts, _ = sensor_chain.apply(zero, np.zeros((n, 6)), [effect], 7, adc, 0.001, stream)
+    return counts - sensor_chain.pressure_to_counts(zero, adc)
+  for effect, change in (("sensor_noise", lambda c: c),
+                         ("thermal_drift", lambda c: np.diff(c, axis=0))):
+    a, b = (change(draw(effect, st)) for st in streams)
+    corr = [np.corrcoef(a[:, d], b[:, d])[0, 1] for d in range(6)]
+    assert np.max(np.abs(corr)) < 0.05, (effect, corr)
+    np.testing.assert_array_equal(a, change(draw(effect, streams[0])))
+  spread = [draw("gain_offset_spread", st) for st in streams]
+  np.testing.assert_array_equal(spread[0], spread[1])

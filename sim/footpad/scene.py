@@ -146,6 +146,18 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
                               stiffness=layer.element_stiffness(scene.params)).compile()
 
 
+def stream_of(eps) -> int:
+  """A recording's identity for its random streams: a CRC of the CNC commands of its
+  episodes (paths, depths, feeds, custom paths alike), so two recordings of one run draw
+  their noise and drift apart, while the same commands with other physics settings (an
+  ablation, a sweep) draw the same."""
+  import zlib
+  crc = 0
+  for ep in eps:
+    crc = zlib.crc32(np.ascontiguousarray(ep.target, dtype=np.float64).tobytes(), crc)
+  return crc
+
+
 def thirion_friction(mu0: float, shear_strength: float, pressure: np.ndarray) -> np.ndarray:
   """Friction coefficient tau / p of rubber at contact pressure p (Pa) by Thirion's law,
   tau = mu0 p / (1 + mu0 p / tau_s): mu0 as p -> 0, tau -> tau_s as p -> inf."""
@@ -399,7 +411,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   pressure, sens, force_sum, cnc, slip = (np.concatenate([r[k] for r in results])
                                           for k in range(5))
   counts, wrench = sensor_chain.apply(pressure, sens, effects, scene.seed, scene.adc,
-                                      scene.params.timestep)
+                                      scene.params.timestep, stream_of(eps))
   chain_cpu = sum(r[6] for r in results) + time.perf_counter() - t2
   physics_cpu = sum(r[5] for r in results)
 
@@ -424,9 +436,10 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
 def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
-  # in shear too; 4 = the slip share of each sample, FootpadParams' friction law.
+  # in shear too; 4 = the slip share of each sample, FootpadParams' friction law; 5 = every
+  # recording its own noise and drift streams (`stream_of`).
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "4"}
+          "physics": "5"}
 
 
 def cache_key(scene: FootpadScene) -> dict:

@@ -7,7 +7,7 @@ pressures with other effects or another seed without re-simulating.
 from __future__ import annotations
 
 import dataclasses
-from typing import Literal
+from typing import Literal, Optional
 
 import numpy as np
 
@@ -87,7 +87,8 @@ def saturation_pressure(adc: AdcConfig) -> float:
 
 
 def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
-          adc: AdcConfig = AdcConfig(), dt: float = 0.001) -> tuple[np.ndarray, np.ndarray]:
+          adc: AdcConfig = AdcConfig(), dt: float = 0.001,
+          stream: Optional[int] = None) -> tuple[np.ndarray, np.ndarray]:
   """Runs the chain.
 
   Args:
@@ -98,12 +99,14 @@ def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
     seed: the run's seed.
     adc: sensor supply and ADC settings.
     dt: time between samples, s.
+    stream: the recording's identity (`scene.stream_of`): its noise and drift are its own,
+      while the dies' unit spread stays the pad's (None: keyed by the seed alone).
   Returns:
     counts (N, D) float64 and the plate wrench as measured (N, 6).
   """
   on = active(effects, EFFECTS)
   adc.validate()
-  chain = _Chain(adc, seed, dt)
+  chain = _Chain(adc, seed, dt, stream)
   p = run_steps(PRESSURE_STEPS, np.asarray(pressure, dtype=np.float64), on, chain)
   counts = run_steps(COUNT_STEPS, pressure_to_counts(p, adc), on, chain)
   measured = run_steps(WRENCH_STEPS, np.array(wrench, dtype=np.float64), on, chain)
@@ -112,10 +115,12 @@ def apply(pressure: np.ndarray, wrench: np.ndarray, effects, seed: int,
 
 @dataclasses.dataclass(frozen=True)
 class _Chain:
-  """What the steps of one run read: the ADC settings, the run's seed, the sample time (s)."""
+  """What the steps of one run read: the ADC settings, the run's seed, the sample time (s),
+  the recording's stream."""
   adc: AdcConfig
   seed: int
   dt: float
+  stream: Optional[int] = None
 
 
 def _hysteresis(p, c: _Chain):
@@ -123,7 +128,7 @@ def _hysteresis(p, c: _Chain):
 
 
 def _thermal_drift(p, c: _Chain):
-  rng = rng_for(c.seed, fx.THERMAL_DRIFT.name)
+  rng = rng_for(c.seed, fx.THERMAL_DRIFT.name, c.stream)
   steps = c.adc.drift_time / c.dt
   offset = wander(rng, p.shape, c.adc.drift_offset * MPX_SPAN, steps)
   gain = 1.0 + wander(rng, p.shape, c.adc.drift_gain, steps)
@@ -142,8 +147,8 @@ def _sensor_range(p, c: _Chain):
 
 
 def _sensor_noise(counts, c: _Chain):
-  return counts + rng_for(c.seed, fx.SENSOR_NOISE.name).normal(0.0, c.adc.noise_counts,
-                                                               counts.shape)
+  rng = rng_for(c.seed, fx.SENSOR_NOISE.name, c.stream)
+  return counts + rng.normal(0.0, c.adc.noise_counts, counts.shape)
 
 
 def _adc_range(counts, c: _Chain):
@@ -152,7 +157,8 @@ def _adc_range(counts, c: _Chain):
 
 def _ft_noise(wrench, c: _Chain):
   sd = np.array([0.125, 0.125, 0.25, 0.0075, 0.0075, 0.0075])
-  return wrench + rng_for(c.seed, fx.FT_NOISE.name).normal(0.0, 1.0, wrench.shape) * sd
+  return wrench + rng_for(c.seed, fx.FT_NOISE.name, c.stream).normal(0.0, 1.0,
+                                                                     wrench.shape) * sd
 
 
 # The chain in the order the hardware applies it: on the die's pressure (the gel's history,
