@@ -121,3 +121,19 @@ def test_a_custom_path_runs_through_the_scene_and_keys_the_cache_by_content(tmp_
   path.write_text(SQUARE_CSV.replace("-1.2", "-9"))
   with pytest.raises(errors.DataError, match="presses 9.00 mm deep"):
     scene.validate()
+
+
+def test_a_custom_path_is_on_path_only_at_its_depth(tmp_path):
+  """As on the paper's paths, phase 1 is the path at its depth: the press down, the lift and
+  a move from one depth to another are not (the press down is where NN-only was off by
+  hundreds of newtons)."""
+  (tmp_path / "p.csv").write_text("0,0,0.1,5\n0,0,-1,1\n2,0,-1,5\n2,0,-1.5,1\n0,0,-1.5,5\n"
+                                  "0,0,0.1,1\n")
+  ep = tr.waypoint_episode(tr.read_path(str(tmp_path / "p.csv")), 0.001)
+  z, on = ep.target[:, 2] * 1e3, ep.phase == 1
+  moving_z = np.r_[False, np.abs(np.diff(z)) > 1e-9]
+  assert on.any() and not (on & moving_z).any()  # no sample of a press, lift or step down
+  np.testing.assert_allclose(sorted(set(np.round(z[on], 9))), [-1.5, -1.0])
+  # every sample at depth moving sideways is on the path
+  sideways = np.r_[False, np.abs(np.diff(ep.target[:, 0])) > 0] & (z < 0) & ~moving_z
+  assert (on[sideways]).all()

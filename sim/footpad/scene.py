@@ -437,9 +437,10 @@ def versions() -> dict[str, str]:
   # "physics" changes whenever the model or sensor chain does, so stale cached recordings
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
   # in shear too; 4 = the slip share of each sample, FootpadParams' friction law; 5 = every
-  # recording its own noise and drift streams (`stream_of`).
+  # recording its own noise and drift streams (`stream_of`); 6 = a custom path's phase 1 is
+  # the path at its depth (not its press down).
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "5"}
+          "physics": "6"}
 
 
 def cache_key(scene: FootpadScene) -> dict:

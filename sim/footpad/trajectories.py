@@ -355,17 +355,23 @@ def _is_number(text: str) -> bool:
 
 def waypoint_episode(waypoints: Waypoints, dt: float) -> Episode:
   """The CNC commands of a user's path: each move resampled at its feed, each hold as the
-  point repeated for its time; phase 1 where the command presses into the plate (z < 0);
-  the episode's z_level is its deepest press."""
+  point repeated for its time. Phase 1 marks the path at its depth, as on the paper's paths:
+  moves and holds in the plate (z < 0) that keep their depth; a press down, a lift and a
+  move from one depth to another are phase 0. The episode's z_level is its deepest press."""
   holds = np.zeros(len(waypoints.points)) if waypoints.holds is None else waypoints.holds
-  parts = [waypoints.points[:1]]
-  for k in range(len(waypoints.points)):
+  p = waypoints.points
+  parts, flags = [p[:1]], [np.zeros(1, np.int8)]
+  for k in range(len(p)):
     if k:
-      seg = _resample(waypoints.points[k - 1:k + 1], waypoints.feeds[k] * dt)
-      parts.append(seg[1:])
+      seg = _resample(p[k - 1:k + 1], waypoints.feeds[k] * dt)[1:]
+      at_depth = p[k - 1, 2] == p[k, 2] < 0
+      parts.append(seg)
+      flags.append(np.full(len(seg), at_depth, np.int8))
     if holds[k] > 0:
-      parts.append(np.repeat(waypoints.points[k:k + 1], int(round(holds[k] / dt)), axis=0))
+      n = int(round(holds[k] / dt))
+      parts.append(np.repeat(p[k:k + 1], n, axis=0))
+      flags.append(np.full(n, p[k, 2] < 0, np.int8))
   target = np.concatenate(parts)
-  phase = (target[:, 2] < 0).astype(np.int8)
+  phase = np.concatenate(flags)
   return Episode(waypoints.name, float(max(-target[:, 2].min(), 0.0)), target, phase)
 
