@@ -228,8 +228,8 @@ def _rows(data: dict) -> list:
       m: {ax: {k: float(np.median(v)) for k, v in draws[m][ax].items()} for ax in AXES}
       for m in METHODS}, {m: {ax: {k: float(np.std(v)) for k, v in draws[m][ax].items()}
                               for ax in AXES} for m in METHODS})
-  general = data["generalisation"]
-  out += outputs.scored("generalisation", {m: general[m] for m in METHODS if m in general})
+  for key, by_method in data["generalisation"].items():
+    out += outputs.scored(f"generalisation/{key}", by_method)
   out += outputs.scored("paper/table1", {m: {ax: dict(zip(("rmse", "nrmse_pct", "r2_pct"), v))
                                              for ax, v in t.items()}
                                          for m, t in PAPER_TABLE1.items()})
@@ -238,7 +238,7 @@ def _rows(data: dict) -> list:
   return out + outputs.plain(data, skip=(
       ("results",), ("LS_train",), ("test_draws",), ("per_seed", "*", "LSANN", "test"),
       ("per_seed", "*", "NN", "test"), ("validation_blocks", "*", "*", "test"),
-      *((("generalisation", m) for m in METHODS)), ("paper", "table1"),
+      ("generalisation",), ("paper", "table1"),
       ("paper", "LS_train_nrmse_pct")))
 
 
@@ -276,33 +276,47 @@ def _predictions_and_figures(ctx, train, test, on_test: dict) -> None:
                                  AXES, benchmark=name, seed=ctx.seed), ctx.out, "strokes")
 
 
+UNSEEN = ("square", "lissajous", "spiral")  # shapes none of the paper's paths has
+
+
 def _generalisation(ctx, fitted: dict) -> dict:
-  """The fitted estimators ({method: [estimator per seed]}) on a path that is none of the
-  paper's (`square`), at depths halfway between the training levels: how they do where they
-  were not trained."""
+  """The fitted estimators ({method: [estimator per seed]}) on shapes that are none of the
+  paper's (`UNSEEN`), at training depths and halfway between them (at most three of each):
+  how they do where they were not trained. {"<path> <at|between>": {method: {axis: ...}}}."""
   from calibrate import metrics
   from sim.footpad import scene as scene_lib
   levels = sorted(ctx.settings.z_levels)
   # every gap between distinct levels (the paper's are 0.1 mm apart: 1e-4 itself is no
   # threshold, float spacing puts some gaps a hair under it)
-  between = tuple(round((a + b) / 2, 6) for a, b in zip(levels, levels[1:]) if b - a > 1e-6)
-  if not between:
-    return {}
-  scene = dataclasses.replace(ctx.settings, paths=("square",), z_levels=between)
-  rec, _ = scene_lib.generate(scene, ctx.progress("footpad square episodes"), ctx.use_cache)
+  between = [round((a + b) / 2, 6) for a, b in zip(levels, levels[1:]) if b - a > 1e-6]
+  def pick(zs):  # the first, the middle and the last
+    return tuple(zs[i] for i in sorted({0, len(zs) // 2, len(zs) - 1})) if zs else ()
+  depths = {"at": pick(levels), "between": pick(between)}
+  scene = dataclasses.replace(ctx.settings, paths=UNSEEN,
+                              z_levels=tuple(sorted(set(depths["at"] + depths["between"]))))
+  rec, _ = scene_lib.generate(scene, ctx.progress("footpad unseen shapes"), ctx.use_cache)
   ctx.used(rec)
-  held = rec.on_path()
-  truth = held.wrench[:, :3]
-  out = {"path": "square", "z_levels_mm": [z * 1e3 for z in between], "samples": len(held)}
-  ctx.print(f"\ngeneralisation: the square path (none of the paper's) at "
-            f"{', '.join(f'{z * 1e3:g}' for z in between)} mm, between the training depths; "
-            f"test NRMSE % / R2 % Z, Y, X (networks: median of {len(fitted['NN'])} seeds)")
-  for m in METHODS:
-    summaries = [metrics.summary(est.predict(held.counts), truth, AXES) for est in fitted[m]]
-    out[m] = {ax: {key: float(np.median([s[ax][key] for s in summaries]))
-                   for key in summaries[0][ax]} for ax in AXES}
-    ctx.print(f"  {m:6s} " + "   ".join(f"{ax} {out[m][ax]['nrmse_pct']:6.2f} / "
-                                         f"{out[m][ax]['r2_pct']:6.2f}" for ax in ("Z", "Y", "X")))
+  ctx.print(f"\ngeneralisation: shapes none of the paper's paths has, at training depths "
+            f"({', '.join(f'{z * 1e3:g}' for z in depths['at'])} mm) and between them "
+            f"({', '.join(f'{z * 1e3:g}' for z in depths['between'])} mm); test NRMSE % / R2 % "
+            f"Z, Y, X (networks: median of {len(fitted['NN'])} seeds)")
+  out = {}
+  for path in UNSEEN:
+    for where, zs in depths.items():
+      if not zs:
+        continue
+      held = rec.paths(path).on_path()
+      held = held.select(np.isin(np.round(held.z_level, 6), np.round(zs, 6)))
+      truth = held.wrench[:, :3]
+      key = f"{path} {where}"
+      out[key] = {}
+      for m in METHODS:
+        summaries = [metrics.summary(est.predict(held.counts), truth, AXES) for est in fitted[m]]
+        out[key][m] = {ax: {k: float(np.median([s[ax][k] for s in summaries]))
+                            for k in summaries[0][ax]} for ax in AXES}
+        ctx.print(f"  {key:18s} {m:6s} " + "   ".join(
+            f"{ax} {out[key][m][ax]['nrmse_pct']:6.2f} / {out[key][m][ax]['r2_pct']:7.2f}"
+            for ax in ("Z", "Y", "X")))
   if ctx.quick:
     ctx.print("  (--quick trains at 3 depths only: between them the networks meet contact "
               "states, such as a die partly clipped, that their training never held; the "

@@ -76,13 +76,20 @@ def _route(name: str, repeats: int) -> list[np.ndarray]:
       pts += [np.array(c, float) for c in ((0.002, 0.002), (-0.002, 0.002), (-0.002, -0.002),
                                            (0.002, -0.002), (0.002, 0.002), (-0.002, -0.002),
                                            (0, 0))]
+  elif name == "lissajous":  # none of the paper's: a 3:2 Lissajous figure, +-2.5 mm, once
+    t = np.linspace(0, 2 * np.pi, 361)[1:]
+    pts += list(np.column_stack([0.0025 * np.sin(3 * t), 0.0025 * np.sin(2 * t)]))
+  elif name == "spiral":  # none of the paper's: three turns out to 3 mm, straight back, once
+    t = np.linspace(0, 6 * np.pi, 541)[1:]
+    r = STROKE * t / t[-1]
+    pts += list(np.column_stack([r * np.cos(t), r * np.sin(t)])) + [np.zeros(2)]
   else:
     raise errors.SettingError(f"unknown path {name!r}: allowed {', '.join(PATHS)}")
   return pts
 
 
 PATHS = ("z_press", "x_stroke", "y_stroke", "asterisk", "circular", "test_path_1",
-         "test_path_2", "square")
+         "test_path_2", "square", "lissajous", "spiral")
 PathName = Literal[PATHS]  # what a scene's `paths` field takes
 
 
