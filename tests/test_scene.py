@@ -75,7 +75,7 @@ def test_middle_row_carries_less_signal_under_y_shear():
 @pytest.mark.parametrize("change, message", [
     (dict(z_levels=(-0.001,)), r"z_levels=\(-0.001,\) is out of range: allowed \[0, 0.02\] m"),
     (dict(z_levels=(0.01,)), r"z_levels=\(0.01,\) is out of range: allowed \[0, 0.0052\] m"),
-    (dict(paths=("spiral",)), r"paths=\('spiral',\) is out of range: allowed any of 'z_press'"),
+    (dict(paths=("helix",)), r"paths=\('helix',\) is out of range: allowed any of 'z_press'"),
     (dict(effects=("glitter",)), r"effects=\('glitter',\) is out of range: allowed any of"),
     (dict(params=model_lib.FootpadParams(friction=0.0)), "params.friction=0.0 is out of range"),
     (dict(params=model_lib.FootpadParams(friction=-1.0)), "params.friction=-1.0 is out of range"),

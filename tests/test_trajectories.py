@@ -47,8 +47,8 @@ def test_circular_diameters_and_directions():
 
 
 def test_unknown_path():
-  with pytest.raises(ValueError, match="unknown path 'spiral'"):
-    tr.episode("spiral", 0.001, FEED, DT)
+  with pytest.raises(ValueError, match="unknown path 'helix'"):
+    tr.episode("helix", 0.001, FEED, DT)
 
 
 SQUARE_CSV = """# a 4 mm square at 0.8 mm, then a press at 1.2 mm
