@@ -281,7 +281,8 @@ UNSEEN = ("square", "lissajous", "spiral")  # shapes none of the paper's paths h
 
 def _generalisation(ctx, fitted: dict) -> dict:
   """The fitted estimators ({method: [estimator per seed]}) on shapes that are none of the
-  paper's (`UNSEEN`), at training depths and halfway between them (at most three of each):
+  paper's (`UNSEEN`, one pass each), at training depths and halfway between them (at most
+  three of each):
   how they do where they were not trained. {"<path> <at|between>": {method: {axis: ...}}}."""
   from calibrate import metrics
   from sim.footpad import scene as scene_lib

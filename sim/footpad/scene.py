@@ -438,9 +438,9 @@ def versions() -> dict[str, str]:
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
   # in shear too; 4 = the slip share of each sample, FootpadParams' friction law; 5 = every
   # recording its own noise and drift streams (`stream_of`); 6 = a custom path's phase 1 is
-  # the path at its depth (not its press down).
+  # the path at its depth (not its press down); 7 = the square path once (not three times).
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "6"}
+          "physics": "7"}
 
 
 def cache_key(scene: FootpadScene) -> dict:

@@ -72,10 +72,10 @@ def _route(name: str, repeats: int) -> list[np.ndarray]:
     for c in ((0.0015, 0), (-0.0015, 0), (0, 0.0015), (0, -0.0015)):
       pts += _circle(c, (0, 0), 1)[1:]
   elif name == "square":  # none of the paper's: a 4 mm square corner to corner, then its
-    for _ in range(repeats):  # diagonals, for generalisation at untrained depths
-      pts += [np.array(c, float) for c in ((0.002, 0.002), (-0.002, 0.002), (-0.002, -0.002),
-                                           (0.002, -0.002), (0.002, 0.002), (-0.002, -0.002),
-                                           (0, 0))]
+    # diagonals, once, for generalisation at untrained depths
+    pts += [np.array(c, float) for c in ((0.002, 0.002), (-0.002, 0.002), (-0.002, -0.002),
+                                         (0.002, -0.002), (0.002, 0.002), (-0.002, -0.002),
+                                         (0, 0))]
   elif name == "lissajous":  # none of the paper's: a 3:2 Lissajous figure, +-2.5 mm, once
     t = np.linspace(0, 2 * np.pi, 361)[1:]
     pts += list(np.column_stack([0.0025 * np.sin(3 * t), 0.0025 * np.sin(2 * t)]))
