@@ -55,7 +55,7 @@ def table(tmp_path_factory):
   from sim.footpad import protocol
   ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"),
                 settings=protocol.base(quick=True, seed=0), show_progress=False)
-  data = footpad_table.run_table(ctx, ("asterisk",), seeds=1).data
+  data = footpad_table.run_table(ctx, ("asterisk",), seeds=1, unseen=False).data
   return {**data["results"], "out": ctx.out, "test_draws": data["test_draws"]}
 
 
