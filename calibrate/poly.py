@@ -107,17 +107,30 @@ class PolyFit:
     return f
 
 
-def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bool = True,
-        rcond: float = 1e-10) -> PolyFit:
-  """Ridge least squares of y (N, A) on the monomials of the standardised x (N, C).
+@dataclasses.dataclass(frozen=True)
+class _Factored:
+  """The centred monomials of standardised inputs, factored once for any ridge weight."""
+  mean: np.ndarray
+  scale: np.ndarray
+  lo: np.ndarray
+  hi: np.ndarray
+  powers: np.ndarray
+  m_mean: np.ndarray
+  y_mean: np.ndarray
+  s: np.ndarray
+  vt: np.ndarray
+  uty: np.ndarray
+  keep: np.ndarray
 
-  Minimises |y - b - M coef|^2 + ridge |coef|^2 (the bias unpenalised) through the SVD of
-  the centred monomials M: coef = V diag(s / (s^2 + ridge)) U^T (y - mean y), singular values
-  below rcond x the largest dropped (then it warns how many).
-  """
-  import warnings
-  if not (np.isfinite(ridge) and ridge >= 0):
-    raise errors.SettingError(f"ridge={ridge!r} is out of range: allowed [0, inf)")
+  def solve(self, ridge: float) -> PolyFit:
+    """The fit at one ridge weight: coef = V diag(s / (s^2 + ridge)) U^T (y - mean y)."""
+    d = np.where(self.keep, self.s / (self.s ** 2 + ridge), 0.0)
+    coef = self.vt.T @ (d[:, None] * self.uty)
+    return PolyFit(self.mean, self.scale, self.lo, self.hi, self.powers, coef,
+                   self.y_mean - self.m_mean @ coef, float(ridge), int(self.keep.sum()))
+
+
+def _factor(x: np.ndarray, y: np.ndarray, degree: int, cross: bool, rcond: float) -> _Factored:
   mean, scale = x.mean(axis=0), x.std(axis=0)
   scale = np.where(scale > 1e-12 * np.maximum(np.abs(mean), 1e-300), scale, 1.0)
   z = (x - mean) / scale
@@ -126,14 +139,27 @@ def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bo
   m_mean, y_mean = m.mean(axis=0), y.mean(axis=0)
   u, s, vt = scipy.linalg.svd(m - m_mean, full_matrices=False)
   keep = s > rcond * s[0] if s.size and s[0] > 0 else np.zeros(len(s), bool)
-  rank = int(keep.sum())
-  if rank < m.shape[1] and ridge == 0:
-    warnings.warn(f"polynomial features are rank-deficient ({rank} of {m.shape[1]}): "
-                  f"{m.shape[1] - rank} direction(s) dropped")
-  d = np.where(keep, s / (s ** 2 + ridge), 0.0)
-  coef = vt.T @ (d[:, None] * (u.T @ (y - y_mean)))
-  return PolyFit(mean, scale, z.min(axis=0), z.max(axis=0), p, coef, y_mean - m_mean @ coef,
-                 float(ridge), rank)
+  return _Factored(mean, scale, z.min(axis=0), z.max(axis=0), p, m_mean, y_mean, s, vt,
+                   u.T @ (y - y_mean), keep)
+
+
+def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bool = True,
+        rcond: float = 1e-10) -> PolyFit:
+  """Ridge least squares of y (N, A) on the monomials of the standardised x (N, C).
+
+  Minimises |y - b - M coef|^2 + ridge |coef|^2 (the bias unpenalised) through the SVD of
+  the centred monomials M, singular values below rcond x the largest dropped (then it warns
+  how many, unless a ridge weight regularises them).
+  """
+  import warnings
+  if not (np.isfinite(ridge) and ridge >= 0):
+    raise errors.SettingError(f"ridge={ridge!r} is out of range: allowed [0, inf)")
+  f = _factor(x, y, degree, cross, rcond)
+  out = f.solve(ridge)
+  if out.rank < len(f.powers) and ridge == 0:
+    warnings.warn(f"polynomial features are rank-deficient ({out.rank} of {len(f.powers)}): "
+                  f"{len(f.powers) - out.rank} direction(s) dropped")
+  return out
 
 
 RIDGES = (0.0,) + tuple(10.0 ** k for k in range(-8, 1))  # times the number of samples
@@ -147,20 +173,9 @@ def choose(x, y, folds, degrees=(1, 2, 3)) -> tuple[int, float, dict]:
   for deg in degrees:
     sse = np.zeros(len(RIDGES))
     for tr, va in folds:
-      mean, scale = x[tr].mean(axis=0), x[tr].std(axis=0)
-      scale = np.where(scale > 0, scale, 1.0)
-      p = powers(x.shape[1], deg)
-      m_tr = monomials((x[tr] - mean) / scale, p)
-      m_mean, y_mean = m_tr.mean(axis=0), y[tr].mean(axis=0)
-      u, s, vt = scipy.linalg.svd(m_tr - m_mean, full_matrices=False)
-      keep = s > 1e-10 * s[0]
-      uty = u.T @ (y[tr] - y_mean)
-      box_lo, box_hi = ((x[tr] - mean) / scale).min(axis=0), ((x[tr] - mean) / scale).max(axis=0)
+      f = _factor(x[tr], y[tr], deg, True, 1e-10)
       for k, r in enumerate(RIDGES):
-        lam = r * len(tr)
-        coef = vt.T @ (np.where(keep, s / (s ** 2 + lam), 0.0)[:, None] * uty)
-        held = PolyFit(mean, scale, box_lo, box_hi, p, coef, y_mean - m_mean @ coef, lam, 0)
-        sse[k] += np.sum((held.predict(x[va]) - y[va]) ** 2)
+        sse[k] += np.sum((f.solve(r * len(tr)).predict(x[va]) - y[va]) ** 2)
     for k, r in enumerate(RIDGES):
       table[(deg, r)] = float(sse[k] / len(y))
   (deg, r), _ = min(table.items(), key=lambda kv: kv[1])
