@@ -5,10 +5,10 @@ Recordings from real rigs differ from one random train/test split of one session
 are autocorrelated (a random validation sample sits between training samples), offsets and
 drift differ between recordings, and the test loads may reach past the training range. Both
 simulated sensors are cut into such recordings:
-  - footpad: every episode of the protocol's session (one path at one depth, with the
-    session's thermal drift and the dies' hysteresis) is a recording; the calibrators see
-    the training session's episodes at the shallower depths only (0.5 and 1 mm), and are
-    tested on every episode of the test session, the 1.5 mm ones beyond the training range;
+  - footpad: every episode (one path at one depth, with its session's thermal drift and the
+    dies' hysteresis) is a recording; the calibrators see three training sessions' episodes
+    at the shallower depths only (0.5 and 1 mm), and are tested on every episode of a
+    fourth session's test paths, the 1.5 mm ones beyond the training range;
   - shell: the calibration and test runs with stray infrared light on (an offset wandering
     over seconds, `stray_ir`), cut into 10 s recordings;
   - shell_static: a weight in a few poses: 48 static wrenches held 2 s each (about 200
@@ -37,6 +37,7 @@ from util.fields import setting
 SHELL_CHUNK = 10.0  # s: the shell's runs cut into recordings this long
 STATES, HOLD = 48, 2.0  # the static dataset: load states, and seconds each is held
 FOOTPAD_TRAIN_DEPTHS = (0.0005, 0.001)  # m: the depths the calibrators see
+SESSIONS = 3  # footpad training sessions, each its own noise and drift draw
 
 
 @fields.declared
@@ -84,20 +85,35 @@ class Data:
 
 
 def _footpad(ctx) -> Data:
-  from benchmarks import footpad
-  from sim.footpad import protocol
-  recs = {k: r for k, (r, _) in footpad.recordings(ctx, protocol.base(ctx.quick,
-                                                                      ctx.seed)).items()}
-  train, test = recs["train"].on_path(), recs["test"].on_path()
-  keep = np.isin(np.round(train.z_level, 6), FOOTPAD_TRAIN_DEPTHS)
+  from sim.footpad import protocol, scene as scene_lib
   step = 10  # 1 kHz to 100 Hz: what a user's logger keeps, and the fits stay quick
-  tr = np.flatnonzero(keep)[::step]
+  xs, ys, recs = [], [], []
+  # several training sessions (their own noise and drift draws), as a user records on
+  # several days: a session's slow drift is shared by all its episodes, so only other
+  # sessions show how far it wanders
+  base = protocol.base(ctx.quick, ctx.seed)  # one pad, recorded in several sessions
+  for k in range(SESSIONS):
+    scenes = protocol.scenes(dataclasses.replace(base, session=k))
+    train, _ = scene_lib.generate(scenes["train"], ctx.progress(f"footpad session {k + 1}"),
+                                  ctx.use_cache)
+    ctx.used(train)
+    train = train.on_path()
+    keep = np.flatnonzero(np.isin(np.round(train.z_level, 6), FOOTPAD_TRAIN_DEPTHS))[::step]
+    xs.append(train.counts[keep])
+    ys.append(train.wrench[keep, :3])
+    recs.append(k * 1000 + train.episode[keep])
+  scenes = protocol.scenes(dataclasses.replace(base, session=SESSIONS))
+  test, _ = scene_lib.generate(scenes["test"], ctx.progress("footpad test session"),
+                               ctx.use_cache)
+  ctx.used(test)
+  test = test.on_path()
   te = np.arange(len(test))[::step]
-  return Data(train.counts[tr], train.wrench[tr, :3], train.episode[tr], test.counts[te],
-              test.wrench[te, :3], test.episode[te], ("X", "Y", "Z"),
-              f"footpad: {len(np.unique(train.episode[tr]))} training episodes at 0.5-1 mm, "
-              f"{len(np.unique(test.episode[te]))} test episodes at 0.5-1.5 mm, every 10th "
-              f"sample")
+  rec = np.concatenate(recs)
+  return Data(np.vstack(xs), np.vstack(ys), rec, test.counts[te], test.wrench[te, :3],
+              test.episode[te], ("X", "Y", "Z"),
+              f"footpad: {len(np.unique(rec))} training episodes at 0.5-1 mm from "
+              f"{SESSIONS} sessions, {len(np.unique(test.episode[te]))} test episodes at "
+              f"0.5-1.5 mm from another, every 10th sample")
 
 
 def _shell(ctx) -> Data:

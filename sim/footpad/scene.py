@@ -66,6 +66,9 @@ class FootpadScene:
       rows x, y, z in mm and feed in mm/s, or G0/G1 G-code), run once after `paths` as
       written (z = 0 at first touch, negative pressing); none by default.
     seed: one integer for every random draw of the run.
+    session: which recording session of the pad this is: its noise and drift draws are the
+      session's own, while the pad (its dies' unit spread, drawn from `seed`) stays the
+      same, as when one pad is recorded on several days.
   """
   params: model_lib.FootpadParams = model_lib.FootpadParams()
   paths: tuple[PathName, ...] = ("asterisk",)
@@ -78,6 +81,7 @@ class FootpadScene:
   effects: tuple[EffectName, ...] = ("friction",)
   custom_path: Optional[str] = None
   seed: int = setting(0, "[0, inf)")
+  session: int = setting(0, "[0, 1000000]")
 
   @property
   def max_indentation(self) -> float:
@@ -146,16 +150,16 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
                               stiffness=layer.element_stiffness(scene.params)).compile()
 
 
-def stream_of(eps) -> int:
+def stream_of(eps, session: int = 0) -> int:
   """A recording's identity for its random streams: a CRC of the CNC commands of its
-  episodes (paths, depths, feeds, custom paths alike), so two recordings of one run draw
-  their noise and drift apart, while the same commands with other physics settings (an
-  ablation, a sweep) draw the same."""
+  episodes (paths, depths, feeds, custom paths alike) and the session, so two recordings of
+  one run, or one path in two sessions, draw their noise and drift apart, while the same
+  commands with other physics settings (an ablation, a sweep) draw the same."""
   import zlib
   crc = 0
   for ep in eps:
     crc = zlib.crc32(np.ascontiguousarray(ep.target, dtype=np.float64).tobytes(), crc)
-  return crc
+  return crc if session == 0 else zlib.crc32(f"session {session}".encode(), crc)
 
 
 def thirion_friction(mu0: float, shear_strength: float, pressure: np.ndarray) -> np.ndarray:
@@ -411,7 +415,7 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   pressure, sens, force_sum, cnc, slip = (np.concatenate([r[k] for r in results])
                                           for k in range(5))
   counts, wrench = sensor_chain.apply(pressure, sens, effects, scene.seed, scene.adc,
-                                      scene.params.timestep, stream_of(eps))
+                                      scene.params.timestep, stream_of(eps, scene.session))
   chain_cpu = sum(r[6] for r in results) + time.perf_counter() - t2
   physics_cpu = sum(r[5] for r in results)
 
