@@ -199,12 +199,17 @@ def _training(args):
   return table, x, y, groups, names
 
 
+def _held_out_groups(what: str, groups, args) -> None:
+  """Refuses a choice made on held-out groups when there are none to hold out."""
+  if groups.count < 2 or args.folds < 2:
+    raise errors.SettingError(f"{what} chooses on held-out groups: give --folds 2 or more, "
+                              f"and data that make two groups or more")
+
+
 def _auto(args, x, y, groups, names):
   from calibrate import estimators
   from util.progress import progress_bar
-  if groups.count < 2 or args.folds < 2:
-    raise errors.SettingError("method auto chooses on held-out groups: give --folds 2 or "
-                              "more, and data that make two groups or more")
+  _held_out_groups("--method auto", groups, args)
   config, widths = _config(args)
   return estimators.fit_auto(
       x, y, groups, args.folds, config=config, widths=widths, seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
@@ -246,9 +251,8 @@ def fit(args) -> int:
   from util.progress import progress_bar
   progress = None if args.no_progress else progress_bar("training")
   config, widths = _config(args)
-  if widths and groups.count < 2 or widths and args.folds < 2:
-    raise errors.SettingError("--hidden auto chooses on held-out groups: give --folds 2 or "
-                              "more, and data that make two groups or more")
+  if widths:
+    _held_out_groups("--hidden auto", groups, args)
   try:
     est = estimators.fit(estimators.Kind(args.method.upper()), x, y, config=config,
                          widths=widths,

@@ -72,14 +72,13 @@ def settings(quick: bool, seed: int) -> RealRecordings:
 
 @dataclasses.dataclass(frozen=True)
 class Data:
-  """One rig's recordings: training and test inputs (N, C), targets (N, A), the recording
-  of every sample, the axes' names."""
+  """One rig's recordings: training and test inputs (N, C), targets (N, A), the training
+  recording of every sample (the groups held out), the axes' names."""
   x: np.ndarray
   y: np.ndarray
   rec: np.ndarray
   xt: np.ndarray
   yt: np.ndarray
-  rect: np.ndarray
   axes: tuple[str, ...]
   what: str
 
@@ -110,7 +109,7 @@ def _footpad(ctx) -> Data:
   te = np.arange(len(test))[::step]
   rec = np.concatenate(recs)
   return Data(np.vstack(xs), np.vstack(ys), rec, test.counts[te], test.wrench[te, :3],
-              test.episode[te], ("X", "Y", "Z"),
+              ("X", "Y", "Z"),
               f"footpad: {len(np.unique(rec))} training episodes at 0.5-1 mm from "
               f"{SESSIONS} sessions, {len(np.unique(test.episode[te]))} test episodes at "
               f"0.5-1.5 mm from another, every 10th sample")
@@ -125,8 +124,7 @@ def _shell(ctx) -> Data:
   cal, test = runs["calibration"], runs["test"]
   chunk = int(SHELL_CHUNK * scene_lib.FRAME_RATE)
   return Data(cal.counts, cal.wrench, np.arange(len(cal.counts)) // chunk, test.counts,
-              test.wrench, np.arange(len(test.counts)) // chunk,
-              ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
+              test.wrench, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
               f"shell with stray_ir: {len(cal.counts) // chunk} training and "
               f"{-(-len(test.counts) // chunk)} test recordings of {SHELL_CHUNK:g} s")
 
@@ -147,8 +145,8 @@ def _shell_static(ctx) -> Data:
     loads = np.repeat(states, frames, axis=0)
     _, counts = scene_lib.sense(board, scene_lib.static_pose(board.params, loads), int(seed))
     out.append((counts, loads, np.repeat(np.arange(STATES), frames)))
-  (x, y, rec), (xt, yt, rect) = out
-  return Data(x, y, rec, xt, yt, rect, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
+  (x, y, rec), (xt, yt, _) = out
+  return Data(x, y, rec, xt, yt, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
               f"shell, static: {STATES} load states held {HOLD:g} s each (a weight in a few "
               f"poses), {STATES} other states to test, stray_ir on")
 
