@@ -206,8 +206,22 @@ def _processes(fn, items, workers: int, one_at_a_time: bool):
     _set_env(old)
 
 
+def _die_with_parent(parent: int) -> None:
+  """A worker's initializer: the worker exits once the process that started it is gone.
+  Without it, a sweep whose command was killed (not Ctrl-C'd) leaves its workers computing
+  their points to the end, each holding a core (seen on a shared machine)."""
+  import threading
+
+  def watch():
+    while os.getppid() == parent:
+      time.sleep(1.0)
+    os._exit(1)
+  threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
+
+
 def _pool(fn, items, ctx, workers: int, one_at_a_time: bool):
-  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_die_with_parent,
+                                              initargs=(os.getpid(),)) as pool:
     if one_at_a_time:
       for i, point in items:
         try:

@@ -17,7 +17,7 @@ import sys
 from typing import Any, Callable, Mapping, Optional
 
 from util import errors
-from util.progress import Progress, progress_bar
+from util.progress import Progress, progress_bar, quiet
 
 RIGS = ("footpad", "shell")
 PACKAGES = RIGS + ("calibrators",)  # the calibrators' benchmarks take both rigs' data
@@ -76,8 +76,9 @@ class Context:
         self.recordings.append(stem)
 
   def progress(self, label: str) -> Optional[Progress]:
-    """A progress callback for library code (`progress_bar`), None with --no-progress."""
-    return progress_bar(label) if self.show_progress else None
+    """A progress callback for library code: a bar (`progress_bar`), or with --no-progress
+    one that draws nothing and still stops at a Ctrl-C."""
+    return progress_bar(label) if self.show_progress else quiet
 
 
 @dataclasses.dataclass(frozen=True)

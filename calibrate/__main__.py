@@ -208,12 +208,12 @@ def _held_out_groups(what: str, groups, args) -> None:
 
 def _auto(args, x, y, groups, names):
   from calibrate import estimators
-  from util.progress import progress_bar
+  from util.progress import progress_bar, quiet
   _held_out_groups("--method auto", groups, args)
   config, widths = _config(args)
   return estimators.fit_auto(
       x, y, groups, args.folds, config=config, widths=widths, seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
-      progress=None if args.no_progress else progress_bar("training"), **names)
+      progress=quiet if args.no_progress else progress_bar("training"), **names)
 
 
 def compare(args) -> int:
@@ -248,8 +248,8 @@ def fit(args) -> int:
     _report_fit(est, table, args, y, groups)
     print(f"wrote {args.out}")
     return 0
-  from util.progress import progress_bar
-  progress = None if args.no_progress else progress_bar("training")
+  from util.progress import progress_bar, quiet
+  progress = quiet if args.no_progress else progress_bar("training")
   config, widths = _config(args)
   if widths:
     _held_out_groups("--hidden auto", groups, args)

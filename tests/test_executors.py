@@ -83,3 +83,39 @@ def test_an_unreachable_scheduler_is_a_clear_error():
   with pytest.raises(executors.ExecutorError, match="could not reach the Dask scheduler"):
     executors.sweep(noisy_sum, POINTS[:1], executors.ExecutorSpec(
         "dask", address="tcp://127.0.0.1:9", connect_timeout=3))
+
+
+def test_a_killed_sweep_leaves_no_worker_running(tmp_path):
+  """SIGKILL of the command (no chance to shut its pool down): its workers exit on their own
+  within a few seconds instead of finishing their points."""
+  import os
+  import signal
+  import subprocess
+  import sys
+  import time
+  script = ("import concurrent.futures, multiprocessing, os, time\n"
+            "from benchmarks import executors\n"
+            "if __name__ == '__main__':\n"
+            "  ctx = multiprocessing.get_context('spawn')\n"
+            "  pool = concurrent.futures.ProcessPoolExecutor(1, mp_context=ctx,\n"
+            "      initializer=executors._die_with_parent, initargs=(os.getpid(),))\n"
+            "  print(pool.submit(os.getpid).result(), flush=True)\n"
+            "  pool.submit(time.sleep, 120)\n"
+            "  time.sleep(120)\n")
+  (tmp_path / "parent.py").write_text(script)
+  parent = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")],
+                            stdout=subprocess.PIPE, text=True)
+  worker = int(parent.stdout.readline())
+  parent.send_signal(signal.SIGKILL)
+  parent.wait()
+  deadline = time.monotonic() + 10
+  while time.monotonic() < deadline:
+    try:  # gone, or a zombie nobody reaps (pid 1 of a container may not)
+      with open(f"/proc/{worker}/stat") as stat:
+        if stat.read().rsplit(")", 1)[1].split()[0] in ("Z", "X"):
+          return
+    except FileNotFoundError:
+      return
+    time.sleep(0.2)
+  os.kill(worker, signal.SIGKILL)
+  raise AssertionError("the worker outlived its killed parent by 10 s")

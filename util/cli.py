@@ -20,7 +20,7 @@ import traceback
 import warnings
 from typing import Callable
 
-from util import errors, files
+from util import errors, files, interrupt
 
 INTERRUPTED = 130
 
@@ -46,7 +46,8 @@ def run(body: Callable[[], int], command: str,
   before, warnings.formatwarning = warnings.formatwarning, _warning_line
   out, sys.stdout = sys.stdout, _Reader(sys.stdout)
   try:
-    return body()
+    with interrupt.handled():
+      return body()
   except errors.UserError as err:
     print(f"error: {err}", file=sys.stderr)
     return 2

@@ -6,6 +6,8 @@ import sys
 import time
 from typing import Callable
 
+from util import interrupt
+
 Progress = Callable[[int, int], None]
 
 
@@ -18,6 +20,7 @@ def progress_bar(label: str) -> Progress:
   state = {"last": None, "t0": 0.0, "bar": None, "stages": 0}
 
   def update(done: int, total: int) -> None:
+    interrupt.check()  # a Ctrl-C swallowed in a finaliser stops the command here
     if state["last"] is None or done < state["last"]:  # a new stage
       state["stages"] += 1
       state["t0"] = time.perf_counter()
@@ -41,3 +44,10 @@ def progress_bar(label: str) -> Progress:
                    f"s\n")
       stream.flush()
   return update
+
+
+def quiet(done: int, total: int) -> None:
+  """The progress callback of a command run with --no-progress: draws nothing, still stops
+  at a Ctrl-C (`util.interrupt.check`)."""
+  interrupt.check()
+
