@@ -44,6 +44,10 @@ def _parser() -> argparse.ArgumentParser:
                         ("compare", "every method on the same held-out groups: the table")):
     p = sub.add_parser(command, help=text)
     _training_args(p)
+    p.add_argument("--ensemble", type=int, default=1,
+                   help="LSANN and NN (also within auto): the mean of networks from this "
+                        "many seeds, which predict --std spreads; at few load states 5 "
+                        "interpolate better than one (default 1)")
     if command == "fit":
       p.add_argument("--method", required=True, type=_method,
                      metavar="{" + ",".join(METHODS) + "}",
@@ -53,9 +57,6 @@ def _parser() -> argparse.ArgumentParser:
                           "output")
       p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                      help="where to write the estimator (default estimator.npz)")
-      p.add_argument("--ensemble", type=int, default=1,
-                     help="networks from this many seeds; predict gives their spread "
-                          "(default 1)")
       p.add_argument("--per-channel", action="store_true",
                      help="poly: powers of each channel alone, no cross terms and no ridge "
                           "(the force-sensing-shell paper's pseudoinverse); default: every "
@@ -76,7 +77,7 @@ def _parser() -> argparse.ArgumentParser:
       p.add_argument("--std", action="store_true",
                      help="add a standard deviation column per output (<name>_sd)")
       p.add_argument("--interval", type=float, default=None, metavar="LEVEL",
-                     help="add the split-conformal interval at LEVEL (e.g. 0.95) as "
+                     help="add the interval at LEVEL (e.g. 0.95) as "
                           "<name>_lo and <name>_hi columns (from fit's held-out groups)")
     else:
       p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
@@ -212,7 +213,8 @@ def _auto(args, x, y, groups, names):
   _held_out_groups("--method auto", groups, args)
   config, widths = _config(args)
   return estimators.fit_auto(
-      x, y, groups, args.folds, config=config, widths=widths, seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
+      x, y, groups, args.folds, config=config, widths=widths, seed=args.seed,
+      val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
       progress=quiet if args.no_progress else progress_bar("training"), **names)
 
 
@@ -305,9 +307,16 @@ def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
     half = info.half_width(args.level)
     scale = np.abs(y).max(axis=0)
-    print(f"{args.level:.0%} interval (split-conformal on held-out groups): " + ", ".join(
+    print(f"{args.level:.0%} interval (held-out groups): " + ", ".join(
         f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
         f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
+    between = info.between_width(args.level)
+    if between.any():
+      g = len(info.interval_offsets)
+      print(f"  of which how far a new group's mean error may lie (Student's t over {g} "
+            f"groups' means): " + ", ".join(f"{n} +-{b:.4g} {u}" for n, b, u in
+                                            zip(info.outputs, between, units))
+            + ("; more recordings narrow it" if g < 8 else ""))
     if v.get("ls_only"):
       print(f"LSANN keeps only its LS stage on {', '.join(v['ls_only'])}: its network did not "
             f"beat the LS stage on held-out groups there")

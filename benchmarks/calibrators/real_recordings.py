@@ -5,10 +5,14 @@ Recordings from real rigs differ from one random train/test split of one session
 are autocorrelated (a random validation sample sits between training samples), offsets and
 drift differ between recordings, and the test loads may reach past the training range. Both
 simulated sensors are cut into such recordings:
-  - footpad: every episode (one path at one depth, with its session's thermal drift and the
-    dies' hysteresis) is a recording; the calibrators see three training sessions' episodes
-    at the shallower depths only (0.5 and 1 mm), and are tested on every episode of a
-    fourth session's test paths, the 1.5 mm ones beyond the training range;
+  - footpad: one pad recorded in sessions, each its own noise and thermal drift draw, as a
+    user records on several days; each session is a recording. The calibrators see three
+    training sessions' episodes at the shallower depths only (0.5 and 1 mm), and are tested
+    on three other sessions' test paths, the 1.5 mm ones beyond the training range. The
+    episodes of one session are not separate recordings: they share its slow drift (a 300 s
+    process over a 138 s session), so holding one out would not show how far another
+    session's offsets lie (measured: with episodes as the groups the 95 % interval covered
+    57-91 % of the test session, with sessions 87-100 %);
   - shell: the calibration and test runs with stray infrared light on (an offset wandering
     over seconds, `stray_ir`), cut into 10 s recordings;
   - shell_static: a weight in a few poses: 48 static wrenches held 2 s each (about 200
@@ -38,6 +42,9 @@ SHELL_CHUNK = 10.0  # s: the shell's runs cut into recordings this long
 STATES, HOLD = 48, 2.0  # the static dataset: load states, and seconds each is held
 FOOTPAD_TRAIN_DEPTHS = (0.0005, 0.001)  # m: the depths the calibrators see
 SESSIONS = 3  # footpad training sessions, each its own noise and drift draw
+# footpad test sessions: a session's offset is one draw, so its samples fall inside the
+# interval nearly all or nearly none; coverage is only a share over several sessions
+TEST_SESSIONS = 3
 
 
 @fields.declared
@@ -51,6 +58,10 @@ class RealRecordings:
     folds: grouped cross-validation folds over the training recordings.
     level: the interval's level.
     epochs: epoch cap of the networks.
+    ensemble: networks averaged in every LSANN and NN fit. At few load states one network
+      interpolates between them as its start falls: measured on shell_static, one network's
+      NRMSE 7.9 7.8 6.6 3.8 4.1 8.0 %, the mean of five 6.7 6.0 4.3 2.3 3.1 5.4 % (Fx..Mz),
+      where MLPRegressor(64, 64) reaches 6.5 7.2 4.7 4.0 3.1 6.8 %.
     baselines: also scikit-learn's LinearRegression, PolynomialFeatures + RidgeCV and
       MLPRegressor.
   """
@@ -59,6 +70,7 @@ class RealRecordings:
   folds: int = setting(5, "[2, 20]")
   level: float = setting(0.95, "[0.5, 0.999]")
   epochs: int = setting(300, "[1, 10000]")
+  ensemble: int = setting(5, "[1, 50]")
   baselines: bool = True
 
   def relations(self):
@@ -100,19 +112,22 @@ def _footpad(ctx) -> Data:
     keep = np.flatnonzero(np.isin(np.round(train.z_level, 6), FOOTPAD_TRAIN_DEPTHS))[::step]
     xs.append(train.counts[keep])
     ys.append(train.wrench[keep, :3])
-    recs.append(k * 1000 + train.episode[keep])
-  scenes = protocol.scenes(dataclasses.replace(base, session=SESSIONS))
-  test, _ = scene_lib.generate(scenes["test"], ctx.progress("footpad test session"),
-                               ctx.use_cache)
-  ctx.used(test)
-  test = test.on_path()
-  te = np.arange(len(test))[::step]
+    recs.append(np.full(len(keep), k))  # the session is the recording (module docstring)
+  xt, yt = [], []
+  for k in range(SESSIONS, SESSIONS + TEST_SESSIONS):
+    scenes = protocol.scenes(dataclasses.replace(base, session=k))
+    test, _ = scene_lib.generate(scenes["test"], ctx.progress(f"footpad test session {k + 1}"),
+                                 ctx.use_cache)
+    ctx.used(test)
+    test = test.on_path()
+    xt.append(test.counts[::step])
+    yt.append(test.wrench[::step, :3])
   rec = np.concatenate(recs)
-  return Data(np.vstack(xs), np.vstack(ys), rec, test.counts[te], test.wrench[te, :3],
+  return Data(np.vstack(xs), np.vstack(ys), rec, np.vstack(xt), np.vstack(yt),
               ("X", "Y", "Z"),
-              f"footpad: {len(np.unique(rec))} training episodes at 0.5-1 mm from "
-              f"{SESSIONS} sessions, {len(np.unique(test.episode[te]))} test episodes at "
-              f"0.5-1.5 mm from another, every 10th sample")
+              f"footpad: {SESSIONS} training sessions (the recordings held out in turn), "
+              f"their episodes at 0.5-1 mm; tested on {TEST_SESSIONS} other sessions' test "
+              f"paths at 0.5-1.5 mm; every 10th sample")
 
 
 def _shell(ctx) -> Data:
@@ -170,7 +185,7 @@ def _ours(ctx, d: Data) -> dict:
     warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
     t0 = time.perf_counter()
     auto, table = estimators.fit_auto(d.x, d.y, groups, s.folds, config=config, seed=ctx.seed,
-                                      progress=ctx.progress("networks"))
+                                      ensemble=s.ensemble, progress=ctx.progress("networks"))
     auto_s = time.perf_counter() - t0
     for name, row in list(table.items()) + [("auto", {"estimator": auto, "seconds": auto_s})]:
       est = row["estimator"]
@@ -189,7 +204,7 @@ def _ours(ctx, d: Data) -> dict:
       if name != "auto":  # the paper's split: what its +-1.96 sd promised
         kind = estimators.Kind(name)
         flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed,
-                              cross=kind is estimators.Kind.POLY)
+                              ensemble=s.ensemble, cross=kind is estimators.Kind.POLY)
         r["single_split_coverage_pct"] = (100 * np.mean(
             np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
       else:

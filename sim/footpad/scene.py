@@ -448,8 +448,22 @@ def versions() -> dict[str, str]:
 
 
 def cache_key(scene: FootpadScene) -> dict:
-  """Everything that determines the scene's recording."""
-  return {"scene": scene.config(), "versions": versions()}
+  """Everything that determines the scene's recording: its settings, the versions, and the
+  CNC commands themselves (`stream_of` of its episodes; a custom path's file by its
+  content), so a path whose definition or file changed is simulated again rather than read
+  stale from the cache."""
+  return {"scene": scene.config(), "versions": versions(), "commands": _commands(scene)}
+
+
+def _commands(scene: FootpadScene) -> int:
+  """`stream_of` the scene's path episodes; z_press's depth comes from the pad's kernel,
+  which the settings in the key already determine."""
+  eps = [trajectories.episode(p, z, scene.feed, scene.params.timestep, repeats=3)
+         for p in scene.paths if p != "z_press" for z in scene.z_levels]
+  if scene.custom_path is not None:
+    eps.append(trajectories.waypoint_episode(trajectories.read_path(scene.custom_path),
+                                             scene.params.timestep))
+  return stream_of(eps)
 
 
 def generate(scene: FootpadScene, progress: Optional[Progress] = None, use_cache: bool = True
