@@ -92,6 +92,19 @@ def _recordings(n_rec, rng, n=800):
   return np.vstack(xs), np.vstack(ys), np.concatenate(labels)
 
 
+def _ls_draws(n_train: int, draws: int, folds: int):
+  """(LS fitted with grouped CV on `n_train` recordings, its training data, test errors
+  (N, 3) on 20 recordings never seen) for each of `draws` independent draws."""
+  for draw in range(draws):
+    rng = np.random.default_rng(100 + draw)
+    x, y, rec = _recordings(n_train, rng)
+    xt, yt, _ = _recordings(20, rng)
+    with warnings.catch_warnings():
+      warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+      est = estimators.fit("LS", x, y, groups=splits.groups(len(x), "auto", rec), folds=folds)
+      yield est, (x, y, xt, yt), np.abs(est.predict(xt) - yt)
+
+
 def test_the_interval_covers_its_level_on_recordings_never_seen():
   """LS on 12 recordings, tested on 20 others, over 8 independent draws: the 95 % interval
   from held-out recordings covers 92-98 % of every axis on average (one draw
@@ -99,14 +112,10 @@ def test_the_interval_covers_its_level_on_recordings_never_seen():
   validation samples at random (what `fit` reported before) falls short of its 95 % even for
   LS (3 parameters per axis; flexible methods fall much further: the issue's 2-40x)."""
   covers, naive = [], []
-  for draw in range(8):
-    rng = np.random.default_rng(100 + draw)
-    x, y, rec = _recordings(12, rng)
-    xt, yt, _ = _recordings(20, rng)
+  for est, (x, y, xt, yt), error in _ls_draws(12, 8, 6):
+    covers.append((error <= est.info.half_width(0.95)).mean(axis=0))
     with warnings.catch_warnings():
       warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
-      est = estimators.fit("LS", x, y, groups=splits.groups(len(x), "auto", rec), folds=6)
-      covers.append((np.abs(est.predict(xt) - yt) <= est.info.half_width(0.95)).mean(axis=0))
       flat = estimators.fit("LS", x, y)  # single validation samples at random
       naive.append((np.abs(flat.predict(xt) - yt) <= 1.96 * flat.info.residual_sd).mean(axis=0))
   cover, naive = np.mean(covers, axis=0), np.mean(naive, axis=0)
@@ -120,14 +129,7 @@ def test_the_interval_covers_its_level_from_three_recordings():
   recordings' mean errors, covers 87-99 % of 20 unseen recordings on average; its
   within-recording part alone (a conformal quantile over samples) covers under 70 %."""
   covers, within = [], []
-  for draw in range(12):
-    rng = np.random.default_rng(100 + draw)
-    x, y, rec = _recordings(3, rng)
-    xt, yt, _ = _recordings(20, rng)
-    with warnings.catch_warnings():
-      warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
-      est = estimators.fit("LS", x, y, groups=splits.groups(len(x), "auto", rec), folds=3)
-      error = np.abs(est.predict(xt) - yt)
+  for est, _, error in _ls_draws(3, 12, 3):
     half = est.info.half_width(0.95)
     covers.append((error <= half).mean(axis=0))
     inner = np.sqrt(half ** 2 - est.info.between_width(0.95) ** 2)
