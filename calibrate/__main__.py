@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from calibrate import splits as splits_lib
+from calibrate import csvfile, prepare, splits as splits_lib
 from util import cli, errors, files
 
 METHODS = ("ls", "poly", "lsann", "nn", "auto")
@@ -33,7 +33,6 @@ THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
 
 
 def _parser() -> argparse.ArgumentParser:
-  from calibrate import csvfile
   parser = argparse.ArgumentParser(
       prog="python -m calibrate", formatter_class=argparse.RawDescriptionHelpFormatter,
       description="Fit, apply, score and export force estimators on CSV recordings.",
@@ -71,6 +70,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
     p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
     p.add_argument("--time-column", default="time", help="name of the time column (time)")
+    _cleaning_args(p)
+    _rails_args(p)
     if name == "predict":
       p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("predictions.csv"),
                      help="where to write the predictions (default predictions.csv)")
@@ -84,6 +85,26 @@ def _parser() -> argparse.ArgumentParser:
                      help="folder for metrics.csv, metrics.json and figures (evaluation/)")
       p.add_argument("--level", type=float, default=0.95,
                      help="the interval level whose coverage to report (default 0.95)")
+  p = sub.add_parser("merge", help="two raw streams (sensor, reference) into one recording",
+                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                     description=streams_doc())
+  p.add_argument("pairs", type=cli.path_arg, nargs="+", metavar="SENSOR.csv REFERENCE.csv",
+                 help="a sensor file and its reference file; several pairs for several "
+                      "recordings")
+  p.add_argument("--lag", type=_lag, default=None, metavar="SECONDS",
+                 help="how much later the reference stamps the same event (its samples move "
+                      "earlier by it); default: estimated from the data, and printed either "
+                      "way")
+  p.add_argument("--max-lag", type=float, default=1.0,
+                 help="the largest lag the estimate considers, seconds (default 1)")
+  p.add_argument("--max-gap", type=float, default=None, metavar="SECONDS",
+                 help="the longest reference gap interpolated across (default "
+                      f"{3:g} median reference periods)")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  _cleaning_args(p)
+  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("merged"),
+                 help="folder for the merged recordings, one per pair, named after the "
+                      "sensor file (default merged/)")
   p = sub.add_parser("export", help="write the estimator as dependency-free C99")
   p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
   p.add_argument("--c", dest="c_dir", required=True, type=cli.path_arg,
@@ -96,6 +117,48 @@ def _parser() -> argparse.ArgumentParser:
                                  "folder's csv/.")
   p.add_argument("out", type=cli.path_arg, help="folder for train.csv and test.csv")
   return parser
+
+
+def _cleaning_args(p: argparse.ArgumentParser) -> None:
+  """What every command that reads recordings may drop, counted: empty cells, repeated
+  times."""
+  p.add_argument("--drop-nan", action="store_true",
+                 help="drop rows with an empty cell or NaN (counted) instead of refusing the "
+                      "file")
+  p.add_argument("--dedupe", choices=csvfile.DEDUPE, default=None,
+                 help="rows repeating the previous row's time: 'mean' averages them, 'first' "
+                      "keeps the first (counted); default: refuse the file")
+
+
+def _rails_args(p: argparse.ArgumentParser) -> None:
+  p.add_argument("--rails", type=_rails, default=None, metavar="LO,HI",
+                 help="the ADC's rails in the inputs' units (e.g. 0,4095); default: a "
+                      f"recording's min or max held {prepare.RAIL_HOLD} samples in a row; "
+                      "samples there are reported per channel")
+  p.add_argument("--drop-rails", action="store_true",
+                 help="drop rows with an input at a rail (counted)")
+
+
+def _rails(text: str) -> tuple[float, float]:
+  try:
+    lo, hi = (float(v) for v in text.split(","))
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r}: give two numbers, LO,HI") from None
+  return lo, hi
+
+
+def streams_doc() -> str:
+  from calibrate import streams
+  return streams.__doc__
+
+
+def _lag(text: str) -> Optional[float]:
+  if text.strip().lower() == "auto":
+    return None
+  try:
+    return float(text)
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not seconds or 'auto'") from None
 
 
 def _training_args(p: argparse.ArgumentParser) -> None:
@@ -134,6 +197,19 @@ def _training_args(p: argparse.ArgumentParser) -> None:
                  help="share held out for early stopping and the residual spread (0.15)")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   p.add_argument("--no-progress", action="store_true", help="no progress bar")
+  _cleaning_args(p)
+  _rails_args(p)
+  p.add_argument("--tare", type=float, default=None, metavar="SECONDS",
+                 help="the first SECONDS of each recording are unloaded: each input and "
+                      "target less its median there; the estimator keeps the rule for "
+                      "predict, evaluate and the C export")
+  p.add_argument("--tare-column", default=None, metavar="FLAG",
+                 help="as --tare, the unloaded rows being those where the column FLAG is 0 "
+                      "(a contact flag)")
+  p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
+                 help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
+                      "the range, which are reported either way): +-2**BITS times the "
+                      "channel's smallest step")
 
 
 WIDTHS = (5, 10, 20, 40, 64)  # --hidden auto's candidates
@@ -170,25 +246,42 @@ def _list(text: str) -> list[str]:
   return [t.strip() for t in text.split(",") if t.strip()]
 
 
+def _steps(args):
+  """The preparation steps `fit` and `compare` were asked for."""
+  tare = None
+  if args.tare is not None or args.tare_column is not None:
+    if args.tare is not None and args.tare_column is not None:
+      raise errors.SettingError("--tare and --tare-column: give one of them")
+    tare = prepare.Tare(args.tare, args.tare_column, args.time_column)
+  return prepare.Steps(args.unwrap, args.rails, args.drop_rails, tare)
+
+
 def _training(args):
   """(table, x, y, groups, names) of `fit` and `compare`, every option checked first."""
-  from calibrate import csvfile
   if not 0 <= args.folds <= 20:
     raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
-  table, recording = csvfile.read_many(args.csv, args.time_column)
+  steps = _steps(args)
+  tables, table, recording = csvfile.read_many(args.csv, args.time_column,
+                                               drop_nan=args.drop_nan, dedupe=args.dedupe)
   ins = table.columns(_list(args.inputs), "--inputs")
   outs = table.columns(_list(args.targets), "--targets")
   if set(ins) & set(outs):
     raise errors.SettingError("--inputs and --targets share columns: "
                               + ", ".join(table.names[i] for i in set(ins) & set(outs)))
+  ready = prepare.apply(tables, ins, outs, steps)
+  for line in table.cleaned + ready.said:
+    print(line)
+  recording = recording[ready.rows]
   if args.group is not None:
     (g,) = table.columns([args.group], "--group")
     if g in ins or g in outs:
       raise errors.SettingError(f"--group {args.group} is also an input or a target")
-    recording = recording * (1 + int(np.abs(table.data[:, g]).max())) + table.data[:, g]
-  x, y = table.data[:, ins], table.data[:, outs]
+    column = table.data[ready.rows, g]
+    recording = recording * (1 + int(np.abs(column).max())) + column
+  x, y = ready.x, ready.y
+  args.prepared = ready.record
   try:
     groups = splits_lib.groups(len(x), args.split, recording, x)
   except errors.SettingError as err:  # too few rows or recordings: say which file
@@ -245,6 +338,7 @@ def fit(args) -> int:
   table, x, y, groups, names = _training(args)
   if args.method == "auto":
     est, candidates = _auto(args, x, y, groups, names)
+    est = _with_preparation(est, args.prepared)
     est.save(args.out)
     _print_candidates(est, candidates)
     _report_fit(est, table, args, y, groups)
@@ -262,6 +356,7 @@ def fit(args) -> int:
                          ensemble=args.ensemble, progress=progress, **names,
                          groups=groups, folds=args.folds if groups.count >= 2 else 0,
                          cross=args.method == "poly" and not args.per_channel)
+    est = _with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
                            f"{args.val_fraction:.0%} of them held out for validation: "
@@ -270,6 +365,35 @@ def fit(args) -> int:
   _report_fit(est, table, args, y, groups)
   print(f"wrote {args.out}")
   return 0
+
+
+def _with_preparation(est, record: dict):
+  """The estimator with the preparation its inputs had (unwrap periods, tare rule) in its
+  settings, which `predict`, `evaluate` and the C export apply to new recordings."""
+  import dataclasses
+  return dataclasses.replace(est, info=dataclasses.replace(
+      est.info, settings={**est.info.settings, "prepare": record}))
+
+
+def _new_recording(est, args):
+  """(table, inputs (N, C), the rows kept) of `predict` and `evaluate`: the recording read
+  and prepared as the estimator's training recordings were (its unwrap and tare)."""
+  table = csvfile.read(args.csv, args.time_column, drop_nan=args.drop_nan,
+                       dedupe=args.dedupe)
+  names = est.info.inputs if est.info is not None else None
+  if names is None:
+    raise errors.DataError(f"{args.command}: the estimator holds no input names (fitted "
+                           f"before they were saved): fit it again")
+  ins = table.columns(list(names), "--csv (the estimator's inputs)")
+  record = est.info.settings.get("prepare") or {}
+  periods = record.get("unwrap_periods")
+  tare = prepare.Tare.from_json(record.get("tare"))
+  ready = prepare.apply([table], ins, None, prepare.Steps(None, args.rails, args.drop_rails,
+                                                          tare),
+                        None if periods is None else np.asarray(periods))
+  for line in table.cleaned + ready.said:
+    print(line)
+  return table, ready
 
 
 def _print_candidates(est, candidates: dict) -> None:
@@ -336,22 +460,14 @@ def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
         f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
 
 
-def _inputs(est, table, what: str) -> np.ndarray:
-  names = est.info.inputs if est.info is not None else None
-  if names is None:
-    raise errors.DataError(f"{what}: the estimator holds no input names (fitted before they "
-                           f"were saved): fit it again")
-  return table.data[:, table.columns(list(names), "--csv (the estimator's inputs)")]
-
-
 def predict(args) -> int:
-  from calibrate import csvfile, estimators
+  from calibrate import estimators
   files.output_file(args.out, "--out", (".csv",))
   est = estimators.Estimator.load(args.estimator)
   if args.interval is not None:
     est.info.half_width(args.interval)  # a level out of range, or no interval: say so first
-  table = csvfile.read(args.csv, args.time_column)
-  x = _inputs(est, table, "predict")
+  table, ready = _new_recording(est, args)
+  x = ready.x
   pred, sd = est.predict(x, return_std=True)
   names, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
   a = len(est.info.outputs)
@@ -366,7 +482,8 @@ def predict(args) -> int:
     cols += [pred - half, pred + half]
   t = table.column(args.time_column)
   if t is not None:
-    names, units, cols = [args.time_column] + names, ["s"] + units, [t[:, None]] + cols
+    names, units, cols = ([args.time_column] + names, ["s"] + units,
+                          [t[ready.rows, None]] + cols)
   csvfile.write(args.out, names, np.hstack(cols), units)
   print(f"{len(x)} predictions of {', '.join(est.info.outputs)} to {args.out}")
   return 0
@@ -385,14 +502,19 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
 
 
 def evaluate(args) -> int:
-  from calibrate import csvfile, estimators, figures, metrics as metrics_lib
+  from calibrate import estimators, figures, metrics as metrics_lib
   out = files.output_folder(args.out, "--out")
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
   est = estimators.Estimator.load(args.estimator)
-  table = csvfile.read(args.csv, args.time_column)
-  x = _inputs(est, table, "evaluate")
-  truth = table.data[:, table.columns(list(est.info.outputs), "--csv (the estimator's outputs)")]
+  table, ready = _new_recording(est, args)
+  x = ready.x
+  outs = table.columns(list(est.info.outputs), "--csv (the estimator's outputs)")
+  full = table.data[:, outs]
+  truth = full[ready.rows]
+  tare = prepare.Tare.from_json((est.info.settings.get("prepare") or {}).get("tare"))
+  if tare is not None:  # the truth tared by the same rule, as in training
+    truth = truth - np.median(full[tare.rows(table, table.path)], axis=0)
   pred = est.predict(x)
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)
@@ -427,7 +549,7 @@ def evaluate(args) -> int:
   files.write_text(out / "metrics.csv", metrics_lib.csv_text(
       metrics_lib.scored("results", {est.kind.value: result})))
   t = table.column(args.time_column)
-  t = np.arange(len(x), dtype=float) if t is None else t
+  t = np.arange(len(x), dtype=float) if t is None else t[ready.rows]
   label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
   figures.save(figures.over_time(t, truth, {est.kind.value: pred}, names, "/".join(
       dict.fromkeys(units)), benchmark=label, seed=est.info.settings.get("seed", 0)),
@@ -444,6 +566,39 @@ def export(args) -> int:
   est = estimators.Estimator.load(args.estimator)
   report = cexport.write(est, args.c_dir)
   print(report.text())
+  return 0
+
+
+def merge(args) -> int:
+  from calibrate import streams
+  if len(args.pairs) % 2:
+    raise errors.SettingError(f"merge takes files in pairs, SENSOR.csv REFERENCE.csv: got "
+                              f"{len(args.pairs)} files")
+  if not 0 < args.max_lag <= 60:
+    raise errors.SettingError(f"--max-lag {args.max_lag:g} is out of range: allowed (0, 60] s")
+  out = files.output_folder(args.out, "--out")
+  pairs = list(zip(args.pairs[::2], args.pairs[1::2]))
+  stems = [pathlib.Path(a).stem for a, _ in pairs]
+  if len(set(stems)) != len(stems):
+    raise errors.SettingError("two sensor files share a name; the merged recordings are named "
+                              "after them: rename one")
+  done = []
+  for (a, b), stem in zip(pairs, stems):
+    sensor = csvfile.read(a, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+    reference = csvfile.read(b, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+    for line in sensor.cleaned + reference.cleaned:
+      print(line)
+    m = streams.merge(sensor, reference, args.lag, args.max_gap, args.time_column,
+                      args.max_lag)
+    csvfile.write(out / f"{stem}.csv", m.names, m.data, m.units)
+    print(m.describe(str(a)))
+    done.append(m)
+  lags = [m.lag * 1e3 for m in done]
+  print(f"merged {len(done)} pair(s): {sum(len(m.data) for m in done):,} rows kept, "
+        f"{sum(m.outside for m in done):,} outside the overlap and "
+        f"{sum(m.in_gaps for m in done):,} in reference gaps dropped, lag "
+        + (f"{lags[0]:.1f} ms" if len(set(np.round(lags, 1))) == 1 else
+           f"{min(lags):.1f}-{max(lags):.1f} ms") + f"; wrote {out}/")
   return 0
 
 
@@ -464,7 +619,7 @@ def example(args) -> int:
 def main(argv: Optional[list[str]] = None) -> int:
   args = _parser().parse_args(argv)
   command = {"fit": fit, "compare": compare, "predict": predict, "evaluate": evaluate,
-             "export": export, "example": example}[args.command]
+             "export": export, "example": example, "merge": merge}[args.command]
   return cli.run(lambda: command(args), "calibrate", "interrupted: nothing was written")
 
 

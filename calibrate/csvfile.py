@@ -35,11 +35,15 @@ class Table:
     names: (K,) column names.  units: (K,) units ("" where the file gives none).
     data: (N, K) float64.
     path: where it was read from.
+    lines: (N,) the file line of every row (1-based), for messages; None when not from a file.
+    cleaned: what reading removed, one line each ("3 rows with an empty cell dropped").
   """
   names: tuple[str, ...]
   units: tuple[str, ...]
   data: np.ndarray
   path: str = ""
+  lines: Optional[np.ndarray] = None
+  cleaned: tuple[str, ...] = ()
 
   def columns(self, patterns: Sequence[str], what: str) -> list[int]:
     """Indices of the columns named by `patterns` (names or shell-style globs such as
@@ -65,12 +69,12 @@ class Table:
     return self.data[:, self.names.index(name)] if name in self.names else None
 
 
-def read_many(paths: Sequence, time_column: str = "time") -> tuple[Table, np.ndarray]:
-  """Reads several recordings with the same columns as one table, and (N,) the index of the
-  file each row came from (a path holding *, ? or [ is a glob, expanded in sorted order).
+def expand(paths: Sequence) -> list[str]:
+  """The files named by `paths`, a path holding *, ? or [ read as a glob (sorted); a file
+  named twice is one recording.
 
   Raises:
-    errors.DataError naming the file that matches nothing or whose columns differ.
+    errors.DataError naming the glob that matches nothing.
   """
   import glob
   expanded = []
@@ -83,8 +87,20 @@ def read_many(paths: Sequence, time_column: str = "time") -> tuple[Table, np.nda
       expanded += hits
     else:
       expanded.append(text)
-  expanded = list(dict.fromkeys(expanded))  # a file named twice is one recording
-  tables = [read(p, time_column) for p in expanded]
+  return list(dict.fromkeys(expanded))
+
+
+def read_many(paths: Sequence, time_column: str = "time", **cleaning
+              ) -> tuple[list[Table], Table, np.ndarray]:
+  """Reads several recordings with the same columns: (each file's table, all of them as one
+  table, (N,) the index of the file each row came from). `paths` as `expand` takes them;
+  `cleaning` goes to `read`.
+
+  Raises:
+    errors.DataError naming the file that matches nothing or whose columns differ.
+  """
+  expanded = expand(paths)
+  tables = [read(p, time_column, **cleaning) for p in expanded]
   first = tables[0]
   for t in tables[1:]:
     if t.names != first.names:
@@ -93,7 +109,9 @@ def read_many(paths: Sequence, time_column: str = "time") -> tuple[Table, np.nda
                              f"together need the same columns")
   labels = np.concatenate([np.full(len(t.data), k) for k, t in enumerate(tables)])
   path = first.path if len(tables) == 1 else f"{len(tables)} recordings ({first.path}, ...)"
-  return Table(first.names, first.units, np.vstack([t.data for t in tables]), path), labels
+  return tables, Table(first.names, first.units, np.vstack([t.data for t in tables]), path,
+                       np.concatenate([t.lines for t in tables]),
+                       tuple(f"{t.path}: {c}" for t in tables for c in t.cleaned)), labels
 
 
 def _number(cell: str) -> Optional[float]:
@@ -116,12 +134,23 @@ def _check_units_row(path, line: int, names, row: list[str]) -> None:
                            f"such as N or counts; leave it empty if there is none")
 
 
-def read(path, time_column: str = "time") -> Table:
+DEDUPE = ("mean", "first")
+
+
+def read(path, time_column: str = "time", drop_nan: bool = False,
+         dedupe: Optional[str] = None) -> Table:
   """Reads and checks a CSV file in the layout above.
 
+  Args:
+    drop_nan: drop rows with an empty cell or NaN (counted in `Table.cleaned`) instead of
+      refusing the file; text where a number belongs is refused either way.
+    dedupe: rows with a repeated time: "mean" averages them into one, "first" keeps the
+      first (counted); None refuses the file.
   Raises:
     errors.DataError naming the file, line and column of the first problem.
   """
+  if dedupe is not None and dedupe not in DEDUPE:
+    raise errors.unknown("--dedupe", dedupe, DEDUPE)
   path = pathlib.Path(path)
   try:
     text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not a name
@@ -157,29 +186,72 @@ def read(path, time_column: str = "time") -> Table:
     bad = data.shape != (len(rows), len(names)) or not np.isfinite(data).all()
   except ValueError:
     bad = True
+  cleaned = []
   if bad:
+    kept_rows, dropped = [], 0
     for k in rows:
       row = cells(k)
       if len(row) != len(names):
         raise errors.DataError(f"{path} line {k + 1}: {len(row)} cells for {len(names)} "
                                f"columns")
+      missing = False
       for c, cell in enumerate(row):
         value = _number(cell)
+        if drop_nan and (not cell or (value is not None and np.isnan(value))):
+          missing = True
+          continue
         if value is None or not np.isfinite(value):
           why = ("is empty" if not cell else f"{cell!r} is not a finite number")
-          raise errors.DataError(f"{path} line {k + 1}, column {names[c]!r}: {why}")
+          hint = " (--drop-nan drops such rows, counted)" if not cell or cell.lower() == \
+              "nan" else ""
+          raise errors.DataError(f"{path} line {k + 1}, column {names[c]!r}: {why}{hint}")
+      if missing:
+        dropped += 1
+      else:
+        kept_rows.append(k)
+    if not kept_rows:
+      raise errors.DataError(f"{path}: every data row has an empty cell or NaN")
+    if dropped:
+      cleaned.append(f"{dropped} row(s) with an empty cell or NaN dropped")
+    rows = kept_rows
     # every cell is a number after all (quoted cells, say): read them one by one
     data = np.array([[float(c) for c in cells(k)] for k in rows], dtype=np.float64)
-  table = Table(tuple(names), tuple(units), data, str(path))
-  t = table.column(time_column)
+  lines = np.asarray(rows) + 1
+  t = data[:, names.index(time_column)] if time_column in names else None
   if t is not None:
+    data, lines, note = _repeated_times(path, data, lines, names.index(time_column), dedupe)
+    cleaned += note
+    t = data[:, names.index(time_column)]
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
-      line = rows[bad[0] + 1] + 1
       raise errors.DataError(
-          f"{path} line {line}, column {time_column!r}: time {t[bad[0] + 1]:g} does not "
-          f"increase (previous row {t[bad[0]]:g})")
-  return table
+          f"{path} line {lines[bad[0] + 1]}, column {time_column!r}: time "
+          f"{t[bad[0] + 1]:g} does not increase (previous row {t[bad[0]]:g})")
+  return Table(tuple(names), tuple(units), data, str(path), lines, tuple(cleaned))
+
+
+def _repeated_times(path, data: np.ndarray, lines: np.ndarray, col: int,
+                    dedupe: Optional[str]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+  """Rows whose time repeats the previous row's: merged by `dedupe`, or refused."""
+  same = np.flatnonzero(np.diff(data[:, col]) == 0) + 1  # rows repeating the one before
+  if not same.size:
+    return data, lines, []
+  if dedupe is None:
+    k = same[0]
+    raise errors.DataError(f"{path} line {lines[k]}: time {data[k, col]:g} repeats the "
+                           f"previous row's ({same.size} repeated in all; --dedupe mean or "
+                           f"--dedupe first merges them, counted)")
+  start = np.ones(len(data), bool)
+  start[same] = False
+  run = np.cumsum(start) - 1  # the run of equal times each row belongs to
+  if dedupe == "first":
+    merged = data[start]
+  else:
+    merged = np.zeros((run[-1] + 1, data.shape[1]))
+    np.add.at(merged, run, data)
+    merged /= np.bincount(run)[:, None]
+  word = "averaged" if dedupe == "mean" else "dropped (the first kept)"
+  return merged, lines[start], [f"{same.size} row(s) repeating a time {word}"]
 
 
 def write(path, names: Sequence[str], data: np.ndarray,

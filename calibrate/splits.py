@@ -109,7 +109,8 @@ def groups(n: int, how: How = "auto", recording: Optional[np.ndarray] = None,
 
 def holdout(g: Groups, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
   """(train, held-out) sample indices: whole groups at random until about `fraction` of the
-  samples are held out (at least one group, never all)."""
+  samples are held out (at least one group, never all; of a single group, its last
+  `fraction` of samples)."""
   if not 0 < fraction < 1:
     raise errors.SettingError(f"validation fraction {fraction!r} is out of range: allowed (0, 1)")
   rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
@@ -118,6 +119,10 @@ def holdout(g: Groups, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarr
     n_val = max(1, int(round(fraction * len(idx))))
     return np.sort(idx[n_val:]), np.sort(idx[:n_val])
   sizes = np.bincount(g.labels)
+  if len(sizes) < 2:  # one group (a fold of two recordings): hold out its contiguous tail
+    n_val = max(1, int(round(fraction * len(g.labels))))
+    idx = np.arange(len(g.labels))
+    return idx[:-n_val], idx[-n_val:]
   order = rng.permutation(len(sizes))
   held, total = [], 0
   for k in order[:-1]:  # never every group

@@ -203,8 +203,10 @@ def _ours(ctx, d: Data) -> dict:
       r["seconds"] = row["seconds"]
       if name != "auto":  # the paper's split: what its +-1.96 sd promised
         kind = estimators.Kind(name)
+        nets = kind in (estimators.Kind.LSANN, estimators.Kind.NN)
         flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed,
-                              ensemble=s.ensemble, cross=kind is estimators.Kind.POLY)
+                              ensemble=s.ensemble if nets else 1,
+                              cross=kind is estimators.Kind.POLY)
         r["single_split_coverage_pct"] = (100 * np.mean(
             np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
       else:

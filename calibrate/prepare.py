@@ -1,0 +1,244 @@
+"""What real recordings need before a fit, one recording at a time, each step counted.
+
+A real log is not a clean table: registers wrap around in hard presses, channels sit on an
+ADC rail, the sensor's baseline and the reference's offset move between recordings. Each
+step here finds what it acts on, says so in one line (file, line, channel, share), and acts
+only when asked:
+
+* wrap-around: a one-sample jump larger than half a channel's range is reported; with
+  `unwrap_bits` it is undone exactly (plus or minus 2**bits times the channel's
+  least significant bit, which is the smallest step between its values);
+* rails: samples with a channel at its rail (`rails=(lo, hi)`, or found as the recording's
+  minimum or maximum held for `RAIL_HOLD` samples in a row) are reported per channel with
+  their share; `drop_rails` removes those rows;
+* tare (`Tare`): each input channel and each target offset by its median over the
+  recording's unloaded rows (its first seconds, or rows where a contact flag is 0), as F/T
+  users bias their sensor before each contact. An estimator keeps the rule, so `predict`,
+  `evaluate` and the C export apply it to new recordings the same way.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional, Sequence
+
+import numpy as np
+
+from util import errors
+
+RAIL_HOLD = 50  # samples in a row at a recording's extreme that make it a rail
+SHOWN = 5  # lines named per finding; the rest counted
+
+
+@dataclasses.dataclass(frozen=True)
+class Tare:
+  """How a recording's unloaded rows are found: its first `seconds` (by the time column),
+  or the rows where the column `flag` is 0. Exactly one of the two."""
+  seconds: Optional[float] = None
+  flag: Optional[str] = None
+  time_column: str = "time"
+
+  def __post_init__(self):
+    if (self.seconds is None) == (self.flag is None):
+      raise errors.SettingError("a tare takes either --tare SECONDS or --tare-column FLAG")
+    if self.seconds is not None and not 0 < self.seconds < 1e6:
+      raise errors.SettingError(f"--tare {self.seconds!r} is out of range: allowed seconds "
+                                f"> 0")
+
+  def describe(self) -> str:
+    return (f"the first {self.seconds:g} s of each recording" if self.seconds is not None
+            else f"the rows of each recording where {self.flag} is 0")
+
+  def rows(self, table, where: str) -> np.ndarray:
+    """Indices of the unloaded rows of one recording (a `csvfile.Table`).
+
+    Raises:
+      errors.DataError when the recording has no such row, or lacks the column the rule
+      reads.
+    """
+    if self.seconds is not None:
+      t = table.column(self.time_column)
+      if t is None:
+        raise errors.DataError(f"{where}: --tare {self.seconds:g} needs a time column "
+                               f"({self.time_column!r}); use --tare-column FLAG, or name it "
+                               f"with --time-column")
+      rows = np.flatnonzero(t - t[0] < self.seconds)
+    else:
+      flag = table.column(self.flag)
+      if flag is None:
+        raise errors.DataError(f"{where}: no column {self.flag!r} for --tare-column; its "
+                               f"columns are {', '.join(table.names)}")
+      rows = np.flatnonzero(flag == 0)
+    if rows.size == 0:
+      raise errors.DataError(f"{where}: no unloaded row to tare on ({self.describe()})")
+    return rows
+
+  def to_json(self) -> dict:
+    return {"seconds": self.seconds, "flag": self.flag, "time_column": self.time_column}
+
+  @staticmethod
+  def from_json(d: Optional[dict]) -> Optional["Tare"]:
+    return None if d is None else Tare(d.get("seconds"), d.get("flag"),
+                                       d.get("time_column", "time"))
+
+
+@dataclasses.dataclass(frozen=True)
+class Steps:
+  """The steps asked for (the command's options).
+
+  Attributes:
+    unwrap_bits: the register width whose wrap-around is undone (None: only reported).
+    rails: (lo, hi) the ADC's rails, in the inputs' units (None: found per recording).
+    drop_rails: remove rows with an input at a rail.
+    tare: the tare rule (None: no tare).
+  """
+  unwrap_bits: Optional[int] = None
+  rails: Optional[tuple[float, float]] = None
+  drop_rails: bool = False
+  tare: Optional[Tare] = None
+
+  def __post_init__(self):
+    if self.unwrap_bits is not None and not 2 <= self.unwrap_bits <= 64:
+      raise errors.SettingError(f"--unwrap {self.unwrap_bits!r} is out of range: allowed "
+                                f"register widths 2 to 64 bits")
+    if self.rails is not None and not self.rails[0] < self.rails[1]:
+      raise errors.SettingError(f"--rails {self.rails[0]:g},{self.rails[1]:g}: the low rail "
+                                f"must be below the high one")
+
+
+@dataclasses.dataclass(frozen=True)
+class Prepared:
+  """Recordings made ready: inputs (N, C), targets (N, A) or None, (N,) the recording of
+  every row, (N,) each row's index in the recordings' rows stacked, the lines said, and what
+  the estimator keeps (`record`: the unwrap periods and the tare rule, JSON-able)."""
+  x: np.ndarray
+  y: Optional[np.ndarray]
+  recording: np.ndarray
+  rows: np.ndarray
+  said: tuple[str, ...]
+  record: dict
+
+
+def lsb(values: np.ndarray) -> float:
+  """The smallest step between a channel's distinct values (its least significant bit, as
+  far as the data show it); 1.0 for a channel with a single value."""
+  u = np.unique(values)
+  if len(u) < 2:
+    return 1.0
+  d = np.diff(u)
+  return float(d[d > 1e-9 * max(np.abs(u).max(), 1.0)].min())
+
+
+def jumps(x: np.ndarray, threshold: np.ndarray) -> list[tuple[int, int]]:
+  """(row, channel) of every one-sample jump larger than `threshold` (C,)."""
+  rows, cols = np.nonzero(np.abs(np.diff(x, axis=0)) > threshold)
+  return sorted(zip((rows + 1).tolist(), cols.tolist()))
+
+
+def unwrap(x: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+  """(x with every wrap of its registers undone, (C,) wraps undone per channel): a jump
+  larger than half the period is a wrap, and the rest of the recording moves by whole
+  periods."""
+  d = np.diff(x, axis=0)
+  k = np.where(np.abs(d) > period / 2, np.round(d / period), 0.0)
+  out = x.copy()
+  out[1:] -= np.cumsum(k, axis=0) * period
+  return out, (k != 0).sum(axis=0)
+
+
+def at_rails(x: np.ndarray, rails: Optional[tuple[float, float]]) -> np.ndarray:
+  """(N, C) bool: the samples at a rail. Given rails: at or beyond them; otherwise a
+  channel's minimum or maximum over the recording when it is held `RAIL_HOLD` samples in a
+  row somewhere (a sensor at rest that merely sits at its lowest reading wanders by its
+  noise and is not held that long)."""
+  if rails is not None:
+    return (x <= rails[0]) | (x >= rails[1])
+  mask = np.zeros(x.shape, bool)
+  for c in range(x.shape[1]):
+    for extreme in (x[:, c].min(), x[:, c].max()):
+      at = x[:, c] == extreme
+      if _longest_run(at) >= RAIL_HOLD:
+        mask[:, c] |= at
+  return mask
+
+
+def _longest_run(flags: np.ndarray) -> int:
+  if not flags.any():
+    return 0
+  edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+  return int((np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).max())
+
+
+def _where(table, rows: Sequence[int]) -> str:
+  lines = table.lines if table.lines is not None else np.arange(len(table.data)) + 1
+  shown = ", ".join(str(int(lines[r])) for r in list(rows)[:SHOWN])
+  more = f" and {len(rows) - SHOWN} more" if len(rows) > SHOWN else ""
+  return f"line {shown}{more}"
+
+
+def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps: Steps,
+          periods: Optional[np.ndarray] = None) -> Prepared:
+  """Runs the steps on each recording (a `csvfile.Table` each) and stacks them.
+
+  Args:
+    inputs, targets: column indices (targets None: inputs only, as for `predict`).
+    periods: (C,) the unwrap periods an estimator kept (None: 2**unwrap_bits times each
+      channel's least significant bit in these recordings).
+  """
+  names = tables[0].names
+  said, xs, ys, recs, kept = [], [], [], [], []
+  start = 0
+  if steps.unwrap_bits is not None and periods is None:
+    every = np.vstack([t.data[:, inputs] for t in tables])
+    periods = np.array([2.0 ** steps.unwrap_bits * lsb(every[:, c])
+                        for c in range(len(inputs))])
+  for k, table in enumerate(tables):
+    x = table.data[:, inputs]
+    y = None if targets is None else table.data[:, targets]
+    keep = np.ones(len(x), bool)
+    threshold = periods / 2 if periods is not None else np.ptp(x, axis=0) / 2
+    found = jumps(x, np.maximum(threshold, 1e-300))
+    if found:
+      per = {}
+      for row, c in found:
+        per.setdefault(c, []).append(row)
+      for c, rows in per.items():
+        said.append(f"{table.path}: {names[inputs[c]]}: {len(rows)} one-sample jump(s) over "
+                    f"half its range, {_where(table, rows)}"
+                    + (" (undone)" if periods is not None else
+                       ": register wrap-around? --unwrap BITS undoes them"))
+    if periods is not None:
+      x, undone = unwrap(x, periods)
+    rail = at_rails(x, steps.rails)
+    for c in np.flatnonzero(rail.any(axis=0)):
+      share = rail[:, c].mean()
+      said.append(f"{table.path}: {names[inputs[c]]} at its rail in {rail[:, c].sum()} of "
+                  f"{len(x)} samples ({share:.1%})"
+                  + (" (dropped)" if steps.drop_rails else ": --drop-rails removes them"))
+    if steps.drop_rails:
+      keep &= ~rail.any(axis=1)
+    if steps.tare is not None:
+      rows = steps.tare.rows(table, table.path)
+      x = x - np.median(x[rows], axis=0)
+      if y is not None:
+        y = y - np.median(y[rows], axis=0)
+    if not keep.any():
+      raise errors.DataError(f"{table.path}: every row has an input at a rail: nothing left "
+                             f"to fit (check --rails)")
+    xs.append(x[keep])
+    ys.append(None if y is None else y[keep])
+    recs.append(np.full(int(keep.sum()), k))
+    kept.append(start + np.flatnonzero(keep))
+    start += len(keep)
+  dropped = sum(len(t.data) for t in tables) - sum(len(x) for x in xs)
+  if steps.drop_rails:
+    said.append(f"rails: {dropped} row(s) with an input at a rail dropped")
+  if periods is not None:
+    said.append("unwrap: period " + ", ".join(f"{names[i]} {p:g}" for i, p in
+                                               zip(inputs, periods)))
+  if steps.tare is not None:
+    said.append(f"tare: each input and target less its median over {steps.tare.describe()}")
+  record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
+            "tare": None if steps.tare is None else steps.tare.to_json()}
+  return Prepared(np.vstack(xs), None if targets is None else np.vstack(ys),
+                  np.concatenate(recs), np.concatenate(kept), tuple(said), record)

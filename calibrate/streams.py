@@ -1,0 +1,152 @@
+"""Two raw streams, one table: the reference's forces put on the sensor's clock.
+
+A sensor and its reference F/T log on their own clocks and rates, in separate files, and
+the reference stamps an event `lag` seconds after the sensor does. `merge` moves the
+reference's stamps earlier by the lag and interpolates its columns linearly onto the
+sensor's samples, only where the reference brackets them: outside the overlap, or inside a
+gap of the reference longer than `max_gap`, a sensor sample gets no target and is dropped
+(counted), since interpolating there would invent forces. `estimate_lag` finds the lag from
+the data: the peak of the cross-correlation between the magnitude of the sensor channels'
+deviation from their median and the magnitude of the reference force.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional
+
+import numpy as np
+
+from util import errors
+
+GAP_PERIODS = 3.0  # default max_gap: this many median reference periods
+
+
+@dataclasses.dataclass(frozen=True)
+class Merged:
+  """One merged recording.
+
+  Attributes:
+    data: (N, K) the kept sensor rows with the reference's columns appended.
+    names, units: (K,) the sensor's columns, then the reference's (its time left out).
+    lines: (N,) the sensor file's line of every kept row.
+    lag: seconds the reference was moved earlier by.  lag_estimated: the data's estimate.
+    outside: sensor rows dropped outside the reference's span.
+    in_gaps: sensor rows dropped inside a reference gap longer than max_gap.
+    max_gap: seconds.
+  """
+  data: np.ndarray
+  names: tuple[str, ...]
+  units: tuple[str, ...]
+  lines: np.ndarray
+  lag: float
+  lag_estimated: Optional[float]
+  outside: int
+  in_gaps: int
+  max_gap: float
+
+  def describe(self, path: str) -> str:
+    est = (f" (estimated from the data: {self.lag_estimated * 1e3:.1f} ms)"
+           if self.lag_estimated is not None else "")
+    return (f"{path}: {len(self.data)} rows kept, {self.outside} outside the reference's "
+            f"span and {self.in_gaps} in its gaps over {self.max_gap * 1e3:.1f} ms dropped, "
+            f"lag {self.lag * 1e3:.1f} ms{est}")
+
+
+def _magnitude(values: np.ndarray) -> np.ndarray:
+  """(N,) the norm of each row's deviation from the columns' medians, each column scaled by
+  its spread (so no channel's units dominate)."""
+  d = values - np.median(values, axis=0)
+  scale = d.std(axis=0)
+  return np.linalg.norm(d / np.where(scale > 0, scale, 1.0), axis=1)
+
+
+def estimate_lag(t_sensor: np.ndarray, sensor: np.ndarray, t_ref: np.ndarray,
+                 reference: np.ndarray, max_lag: float = 1.0) -> float:
+  """Seconds the reference stamps an event after the sensor does, from the data.
+
+  Both magnitudes are resampled on one uniform grid (a quarter of the sensor's median
+  period) over the span both cover; the lag is the peak of their cross-correlation within
+  +-max_lag, refined by a parabola through the peak and its neighbours.
+
+  Raises:
+    errors.DataError when the streams share too short a span to tell.
+  """
+  dt = float(np.median(np.diff(t_sensor))) / 4
+  lo, hi = max(t_sensor[0], t_ref[0]), min(t_sensor[-1], t_ref[-1])
+  if hi - lo < 4 * max_lag or hi - lo < 100 * dt:
+    raise errors.DataError(f"the streams overlap for {max(hi - lo, 0):.3g} s: too short to "
+                           f"estimate a lag of up to {max_lag:g} s; give --lag")
+  grid = np.arange(lo, hi, dt)
+  a = np.interp(grid, t_sensor, _magnitude(sensor))
+  b = np.interp(grid, t_ref, _magnitude(reference))
+  a, b = a - a.mean(), b - b.mean()
+  n = len(grid)
+  size = 1 << int(np.ceil(np.log2(2 * n)))
+  # corr[k] = sum_i a[i] b[i + k]: b (the reference) later by k grid steps
+  corr = np.fft.irfft(np.conj(np.fft.rfft(a, size)) * np.fft.rfft(b, size), size)
+  k_max = min(int(max_lag / dt), n - 1)
+  lags = np.arange(-k_max, k_max + 1)
+  values = corr[lags % size]
+  i = int(np.argmax(values))
+  shift = 0.0
+  if 0 < i < len(values) - 1:  # parabolic refinement between grid steps
+    y0, y1, y2 = values[i - 1], values[i], values[i + 1]
+    denom = y0 - 2 * y1 + y2
+    shift = 0.5 * (y0 - y2) / denom if denom != 0 else 0.0
+  return float((lags[i] + shift) * dt)
+
+
+def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[float] = None,
+          time_column: str = "time", max_lag: float = 1.0) -> Merged:
+  """The reference's columns on the sensor's samples (two `csvfile.Table`s).
+
+  Args:
+    lag: seconds the reference stamps an event after the sensor (None: `estimate_lag`).
+    max_gap: the longest reference gap interpolated across, seconds (None: `GAP_PERIODS`
+      median reference periods).
+    max_lag: the largest lag `estimate_lag` considers, seconds.
+  Raises:
+    errors.DataError when a file has no time column, the two share a column name, or
+      nothing overlaps.
+  """
+  ts, tr = sensor.column(time_column), reference.column(time_column)
+  for table, t in ((sensor, ts), (reference, tr)):
+    if t is None:
+      raise errors.DataError(f"{table.path}: no time column {time_column!r} to merge on "
+                             f"(name it with --time-column)")
+  ref_cols = [i for i, n in enumerate(reference.names) if n != time_column]
+  sen_cols = [i for i, n in enumerate(sensor.names) if n != time_column]
+  shared = {reference.names[i] for i in ref_cols} & {sensor.names[i] for i in sen_cols}
+  if shared:
+    raise errors.DataError(f"{sensor.path} and {reference.path} both have column(s) "
+                           f"{', '.join(sorted(shared))}: rename one side's")
+  if max_gap is None:
+    max_gap = GAP_PERIODS * float(np.median(np.diff(tr)))
+  if not max_gap > 0:
+    raise errors.SettingError(f"--max-gap {max_gap!r} is out of range: allowed seconds > 0")
+  estimated = None  # estimated either way: printed beside a lag the user gives
+  try:
+    estimated = estimate_lag(ts, sensor.data[:, sen_cols], tr, reference.data[:, ref_cols],
+                             max_lag)
+  except errors.DataError:
+    if lag is None:
+      raise
+  used = estimated if lag is None else float(lag)
+  t_ref = tr - used  # the reference's stamps on the sensor's clock
+  inside = (ts >= t_ref[0]) & (ts <= t_ref[-1])
+  k = np.clip(np.searchsorted(t_ref, ts), 1, len(t_ref) - 1)  # t_ref[k-1] <= ts <= t_ref[k]
+  gap = (t_ref[k] - t_ref[k - 1]) > max_gap
+  keep = inside & ~gap
+  if not keep.any():
+    raise errors.DataError(f"{sensor.path} and {reference.path}: no sensor sample lies inside "
+                           f"the reference's span (lag {used:g} s): check the files pair up "
+                           f"and the lag")
+  values = np.column_stack([np.interp(ts[keep], t_ref, reference.data[:, i])
+                            for i in ref_cols])
+  lines = sensor.lines if sensor.lines is not None else np.arange(len(ts)) + 1
+  return Merged(np.hstack([sensor.data[keep], values]),
+                sensor.names + tuple(reference.names[i] for i in ref_cols),
+                sensor.units + tuple(reference.units[i] for i in ref_cols), lines[keep],
+                used, estimated, int((~inside).sum()), int((inside & gap).sum()),
+                float(max_gap))

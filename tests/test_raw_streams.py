@@ -1,0 +1,179 @@
+"""From raw streams to a calibration: merge, lag, gaps, wrap-around, rails, tare, repeated
+times and empty cells, each checked against a planted answer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from calibrate import __main__ as cli, csvfile, prepare, streams
+from util import errors
+
+LAG = 0.025  # s: the reference stamps an event this much later
+SENSOR_HZ = 88.0
+W = np.array([0.9, 1.7, 0.4])  # rad/s of the true force's three axes
+
+
+def _force(t: np.ndarray) -> np.ndarray:
+  return np.column_stack([5 * np.sin(W[0] * 2 * np.pi * t), 3 * np.cos(W[1] * 2 * np.pi * t),
+                          20 + 15 * np.sin(W[2] * 2 * np.pi * t) ** 2])
+
+
+def _streams(seed=0, seconds=40.0, start=0.3, quiet=0.0, mix_seed=None):
+  """A sensor at 88 Hz (6 channels linear in the force, mixed by `mix_seed`'s matrix) and a
+  reference at an irregular 250 Hz (periods 2-6 ms) stamping every event LAG later; the
+  force rests for the first `quiet` seconds."""
+  rng = np.random.default_rng(seed)
+  mix = np.random.default_rng(seed if mix_seed is None else mix_seed).normal(size=(3, 6))
+
+  def force(t):
+    return _force(np.maximum(t, quiet))
+  ts = np.arange(0, seconds, 1 / SENSOR_HZ) + start
+  tr = np.cumsum(rng.uniform(0.5, 1.5, int(seconds * 250) + 200) / 250)
+  counts = force(ts) @ mix * 20 + 2000 + rng.normal(0, 1, (len(ts), 6))  # 1 count of noise
+  sensor = csvfile.Table(("time",) + tuple(f"p{i}" for i in range(6)), ("s",) + ("counts",) * 6,
+                         np.column_stack([ts, counts]), "sensor.csv")
+  reference = csvfile.Table(("time", "Fx", "Fy", "Fz"), ("s", "N", "N", "N"),
+                            np.column_stack([tr, force(tr - LAG)]), "reference.csv")
+  return sensor, reference
+
+
+def test_merged_targets_are_the_true_force_at_the_sensor_samples():
+  sensor, reference = _streams()
+  m = streams.merge(sensor, reference, lag=LAG)
+  truth = _force(m.data[:, 0])
+  # linear interpolation over a reference period h <= 6 ms: error <= h^2/8 max|f''|
+  h = np.diff(reference.data[:, 0]).max()
+  bound = h ** 2 / 8 * np.array([5, 3, 15 * 2]) * (2 * np.pi * W * np.array([1, 1, 2])) ** 2
+  assert (np.abs(m.data[:, 7:] - truth).max(axis=0) <= bound * 1.001).all()
+  assert m.names[7:] == ("Fx", "Fy", "Fz") and m.units[7:] == ("N", "N", "N")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_lag_estimate_is_within_one_sensor_period(seed):
+  sensor, reference = _streams(seed)
+  m = streams.merge(sensor, reference)  # lag from the data
+  assert abs(m.lag - LAG) < 1 / SENSOR_HZ, m.lag
+  assert m.lag_estimated == m.lag
+
+
+def test_outside_the_overlap_and_inside_gaps_rows_are_dropped_and_counted():
+  sensor, reference = _streams(start=-0.5)  # the sensor starts first
+  tr = reference.data[:, 0]
+  cut = (tr > 10.0) & (tr < 10.4)  # the reference logged nothing for 0.4 s
+  reference = csvfile.Table(reference.names, reference.units, reference.data[~cut], "r.csv")
+  m = streams.merge(sensor, reference, lag=LAG)
+  ts = sensor.data[:, 0]
+  t_ref = reference.data[:, 0] - LAG
+  outside = (ts < t_ref[0]) | (ts > t_ref[-1])
+  lo, hi = t_ref[t_ref <= 10.0 - LAG].max(), t_ref[t_ref >= 10.4 - LAG].min()
+  in_gap = (ts > lo) & (ts < hi)
+  assert m.outside == outside.sum() > 0
+  assert m.in_gaps == in_gap.sum() > 0
+  assert len(m.data) == len(ts) - outside.sum() - in_gap.sum()
+  assert not ((m.data[:, 0] > lo) & (m.data[:, 0] < hi)).any()  # nothing invented there
+
+
+def test_wraps_planted_every_n_samples_are_all_found_and_undone_exactly():
+  rng = np.random.default_rng(3)
+  lsb, bits, every = 0.15, 16, 137  # a magnetometer: 0.15 uT per bit, 16-bit registers
+  true = np.round(np.cumsum(rng.normal(0, 30, (2000, 3)), axis=0) / lsb) * lsb
+  period = 2 ** bits * lsb
+  k = np.zeros(2000)
+  k[every::every] = rng.choice([-1.0, 1.0], len(k[every::every]))  # a wrap up or down
+  wrapped = true.copy()
+  wrapped[:, 1] += np.cumsum(k) * period  # planted on channel 1 every 137 samples
+  found = prepare.jumps(wrapped, np.full(3, period / 2))
+  assert found == [(r, 1) for r in range(every, 2000, every)]
+  back, undone = prepare.unwrap(wrapped, np.full(3, period))
+  assert undone.tolist() == [0, len(found), 0]
+  np.testing.assert_allclose(back, true, atol=1e-9 * period)
+  assert prepare.lsb(true[:, 0]) == pytest.approx(lsb)
+
+
+def test_a_planted_rail_is_reported_with_its_exact_share():
+  rng = np.random.default_rng(4)
+  x = rng.uniform(100, 900, (1000, 3))
+  x[300:420, 2] = 1023.0  # channel 2 on its rail for 120 samples
+  x[700:760, 0] = 0.0  # channel 0 on the other for 60
+  given = prepare.at_rails(x, (0.0, 1023.0))
+  found = prepare.at_rails(x, None)
+  for mask in (given, found):
+    assert mask.sum(axis=0).tolist() == [60, 0, 120]
+  table = csvfile.Table(("a", "b", "c"), ("",) * 3, x, "rails.csv")
+  ready = prepare.apply([table], [0, 1, 2], None, prepare.Steps(drop_rails=True))
+  assert any("c at its rail in 120 of 1000 samples (12.0%)" in s for s in ready.said)
+  assert len(ready.x) == 1000 - 180
+
+
+def test_a_tare_makes_per_recording_offsets_vanish():
+  """Two recordings of one sensor, each with its own input and target offset over an
+  unloaded first second: after the tare they are the same recording."""
+  t = np.arange(0, 10, 0.01)
+  load = np.where(t[:, None] < 1.0, 0.0, np.sin(t)[:, None] * [1.0, 2.0])
+  tables = []
+  for k, (dx, dy) in enumerate([(37.0, 0.8), (-120.0, -2.5)]):
+    x = load @ [[3.0, 1.0, 0.5], [0.2, 2.0, 1.0]] * 100 + 1000 + dx
+    y = load + dy
+    tables.append(csvfile.Table(("time", "a", "b", "c", "F1", "F2"), ("",) * 6,
+                                np.column_stack([t, x, y]), f"rec{k}.csv"))
+  steps = prepare.Steps(tare=prepare.Tare(seconds=1.0))
+  ready = prepare.apply(tables, [1, 2, 3], [4, 5], steps)
+  n = len(t)
+  np.testing.assert_allclose(ready.x[:n], ready.x[n:], atol=1e-9)
+  np.testing.assert_allclose(ready.y[:n], ready.y[n:], atol=1e-12)
+  np.testing.assert_allclose(ready.y[:n], load, atol=1e-12)
+  assert ready.record["tare"]["seconds"] == 1.0
+
+
+def test_empty_cells_and_repeated_times_are_refused_or_dropped_and_counted(tmp_path):
+  path = tmp_path / "log.csv"
+  path.write_text("time,a,F\n0,1,2\n0.1,,3\n0.2,2,4\n0.2,4,6\n0.3,5,nan\n0.4,6,7\n")
+  with pytest.raises(errors.DataError, match="line 3, column 'a': is empty .*--drop-nan"):
+    csvfile.read(path)
+  with pytest.raises(errors.DataError, match="line 5: time 0.2 repeats .*--dedupe"):
+    csvfile.read(path, drop_nan=True)
+  table = csvfile.read(path, drop_nan=True, dedupe="mean")
+  assert table.data.tolist() == [[0, 1, 2], [0.2, 3, 5], [0.4, 6, 7]]
+  assert table.lines.tolist() == [2, 4, 7]
+  assert table.cleaned == ("2 row(s) with an empty cell or NaN dropped",
+                           "1 row(s) repeating a time averaged")
+  first = csvfile.read(path, drop_nan=True, dedupe="first")
+  assert first.data[1].tolist() == [0.2, 2, 4]
+
+
+def _write(path, table):
+  csvfile.write(path, table.names, table.data, table.units)
+
+
+def test_the_command_merges_pairs_fits_with_a_tare_and_applies_it_again(tmp_path, capsys):
+  """Two recordings as raw stream pairs, each with its own sensor and reference offset:
+  `merge` then `fit --tare`; `predict` on a third recording tares it by the same rule, and
+  `evaluate` scores it against its tared truth."""
+  pairs = []
+  for k in range(3):
+    # one sensor, three recordings: at rest for their first 1.5 s
+    sensor, reference = _streams(seed=10 + k, start=0.0, quiet=1.5, mix_seed=99)
+    rng = np.random.default_rng(k)
+    sensor.data[:, 1:] += rng.normal(0, 50, 6)  # this recording's baseline
+    reference.data[:, 1:] += rng.normal(0, 2, 3)  # and its reference's offset
+    pairs += [tmp_path / f"s{k}.csv", tmp_path / f"r{k}.csv"]
+    _write(pairs[-2], sensor)
+    _write(pairs[-1], reference)
+  assert cli.main(["merge", *map(str, pairs[:4]), "--lag", str(LAG), "--out",
+                   str(tmp_path / "merged")]) == 0
+  out = capsys.readouterr().out
+  assert "merged 2 pair(s)" in out and "lag 25.0 ms" in out
+  assert cli.main(["fit", "--csv", str(tmp_path / "merged" / "*.csv"), "--inputs", "p*",
+                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--tare", "1", "--folds", "2",
+                   "--no-progress", "--out", str(tmp_path / "e.npz")]) == 0
+  out = capsys.readouterr().out
+  assert "tare: each input and target less its median over the first 1 s" in out
+  assert "rail" not in out and "jump" not in out  # nothing to report in these
+  assert cli.main(["merge", *map(str, pairs[4:]), "--lag", str(LAG), "--out",
+                   str(tmp_path / "new")]) == 0
+  assert cli.main(["evaluate", str(tmp_path / "e.npz"), "--csv", str(tmp_path / "new" /
+                   "s2.csv"), "--out", str(tmp_path / "ev")]) == 0
+  import json
+  result = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
+  assert all(result[a]["nrmse_pct"] < 1.0 for a in ("Fx", "Fy", "Fz")), result
