@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+from typing import Optional
 import re
 
 import numpy as np
@@ -235,13 +236,23 @@ def identifiers(names) -> list[str]:
   return out
 
 
+def _tare(est) -> Optional[dict]:
+  """The tare rule the estimator was fitted with (`calibrate.prepare`), or None."""
+  if est.info is None:
+    return None
+  return (est.info.settings.get("prepare") or {}).get("tare")
+
+
 def integer_inputs(est) -> bool:
   """Whether the estimator's inputs were ADC counts: integers in 0..65535 when it was fitted
-  (`fit` records it; an older file without the record: its training range decides)."""
+  (`fit` records it; an older file without the record: its training range decides). With a
+  tare, the raw inputs before it decide: the C function tares them itself."""
   info = est.info
   if info is None:
     return True
-  known = info.settings.get("integer_inputs")
+  prepared = info.settings.get("prepare") or {}
+  known = prepared.get("raw_integer_inputs") if prepared.get("tare") else \
+      info.settings.get("integer_inputs")
   if known is not None:
     return bool(known)
   return bool((info.input_lo >= 0).all() and (info.input_hi <= 65535).all()
@@ -287,6 +298,57 @@ def _compute(est, w: _Writer, c: int, a: int, dest: str, prefix: str = "") -> li
              f"{_literal(1.0 / len(members))};", "  }"])
 
 
+def _tare_code(tare: dict, c: int, counts: bool, info) -> tuple[list[str], list[str]]:
+  """(header lines, source lines) of the tare the estimator was fitted with: the caller
+  feeds the unloaded samples (the rule is in the comment), the offsets are their per-channel
+  median, as `predict` takes them, and `estimate` subtracts them."""
+  kind = "const uint16_t counts" if counts else "const float inputs"
+  rule = (f"the first {tare['seconds']:g} s of each recording" if tare.get("seconds")
+          is not None else f"the samples where {comment_text(tare['flag'])} is 0")
+  rate = info.settings.get("prepare", {}).get("sample_rate")
+  size = 256 if tare.get("seconds") is None or not rate else \
+      max(16, int(np.ceil(tare["seconds"] * rate)) + 8)
+  header = [
+      f"/* Tare (fit --tare): feed {rule} (unloaded) to estimate_tare_add, then call",
+      " * estimate_tare_end; estimate() then subtracts each input's median over them (up to",
+      " * ESTIMATOR_TARE_MAX samples; offsets start at 0). */",
+      "#ifndef ESTIMATOR_TARE_MAX",
+      f"#define ESTIMATOR_TARE_MAX {size}",
+      "#endif",
+      "void estimate_tare_reset(void);",
+      f"void estimate_tare_add({kind}[ESTIMATOR_INPUTS]);",
+      "void estimate_tare_end(void);", ""]
+  name = "counts" if counts else "inputs"
+  source = [
+      f"static float tare_offset[{c}];",
+      f"static float tare_kept[ESTIMATOR_TARE_MAX][{c}];",
+      "static int tare_n;",
+      "",
+      "void estimate_tare_reset(void) { tare_n = 0; }",
+      "",
+      f"void estimate_tare_add({kind}[ESTIMATOR_INPUTS]) {{",
+      "  if (tare_n >= ESTIMATOR_TARE_MAX) return;",
+      f"  for (int i = 0; i < {c}; ++i) tare_kept[tare_n][i] = (float){name}[i];",
+      "  ++tare_n;",
+      "}",
+      "",
+      "void estimate_tare_end(void) {  /* the median of each channel, by insertion sort */",
+      "  static float v[ESTIMATOR_TARE_MAX];",
+      "  if (tare_n == 0) return;",
+      f"  for (int i = 0; i < {c}; ++i) {{",
+      "    for (int k = 0; k < tare_n; ++k) {",
+      "      float e = tare_kept[k][i];",
+      "      int j = k;",
+      "      for (; j > 0 && v[j - 1] > e; --j) v[j] = v[j - 1];",
+      "      v[j] = e;",
+      "    }",
+      "    tare_offset[i] = (tare_n % 2) ? v[tare_n / 2]",
+      "                                 : 0.5f * (v[tare_n / 2 - 1] + v[tare_n / 2]);",
+      "  }",
+      "}"]
+  return header, source
+
+
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
   c = est.n_inputs
@@ -316,7 +378,10 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       + "; float32 weights; C99, <math.h> only.",
       " * Inputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
                                 for n, u in zip(inputs, in_units))
-      + ("." if counts else "; as float: they were not integer counts when fitted."),
+      + ("." if counts else "; as float: they were not integer counts when fitted.")
+      + ("\n * fit undid the registers' wrap-around (--unwrap): unwrap them before estimate()."
+         if est.info is not None and (est.info.settings.get("prepare") or {}).get(
+             "unwrap_periods") else ""),
       " * Outputs: " + ", ".join(f"{comment_text(n)} ({comment_text(u)})"
                                  for n, u in zip(names, units)) + ". */",
       "#ifndef TESTBENCH_ESTIMATOR_H", "#define TESTBENCH_ESTIMATOR_H", "",
@@ -327,13 +392,18 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
       f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);",
       "", "#endif", ""])
+  tare = _tare(est)
+  name = "counts" if counts else "inputs"
+  tare_h, tare_c = _tare_code(tare, c, counts, est.info) if tare else ([], [])
+  header = header.replace("\n#endif\n", "\n" + "\n".join(tare_h) + ("\n" if tare_h else "")
+                          + "#endif\n")
   source = "\n".join(
-      ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + [
+      ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + tare_c + [
           "",
           f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]) {{",
           f"  float x[{c}];",
-          f"  for (int i = 0; i < {c}; ++i) "
-          f"x[i] = (float){'counts' if counts else 'inputs'}[i];"] + body + ["}", ""])
+          f"  for (int i = 0; i < {c}; ++i) x[i] = (float){name}[i]"
+          + (" - tare_offset[i];" if tare else ";")] + body + ["}", ""])
   out_dir = pathlib.Path(out_dir)
   out_dir.mkdir(parents=True, exist_ok=True)
   files.write_text(out_dir / "estimator.h", header)

@@ -238,7 +238,15 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
                                                zip(inputs, periods)))
   if steps.tare is not None:
     said.append(f"tare: each input and target less its median over {steps.tare.describe()}")
+  raw = np.vstack([t.data[:, inputs] for t in tables])
+  times = [t.column(steps.tare.time_column if steps.tare else "time") for t in tables]
+  steps_s = [np.diff(t) for t in times if t is not None and len(t) > 1]
   record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
-            "tare": None if steps.tare is None else steps.tare.to_json()}
+            "tare": None if steps.tare is None else steps.tare.to_json(),
+            # what the C export takes when it tares the raw inputs itself
+            "raw_integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
+                                              & (raw == np.round(raw)))),
+            "sample_rate": float(1 / np.median(np.concatenate(steps_s))) if steps_s else None,
+            "steps": list(said)}
   return Prepared(np.vstack(xs), None if targets is None else np.vstack(ys),
                   np.concatenate(recs), np.concatenate(kept), tuple(said), record)

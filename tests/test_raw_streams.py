@@ -177,3 +177,67 @@ def test_the_command_merges_pairs_fits_with_a_tare_and_applies_it_again(tmp_path
   import json
   result = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
   assert all(result[a]["nrmse_pct"] < 1.0 for a in ("Fx", "Fy", "Fz")), result
+
+
+CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
+TARE_HARNESS = r"""
+#include <stdio.h>
+#include "estimator.h"
+int main(void) {
+  int n_tare;
+  unsigned v;
+  uint16_t c[ESTIMATOR_INPUTS]; float out[ESTIMATOR_OUTPUTS];
+  if (scanf("%d", &n_tare) != 1) return 1;
+  estimate_tare_reset();
+  for (int k = 0; k < n_tare; ++k) {
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i) { if (scanf("%u", &v) != 1) return 1; c[i] = v; }
+    estimate_tare_add(c);
+  }
+  estimate_tare_end();
+  for (;;) {
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i) { if (scanf("%u", &v) != 1) return 0; c[i] = v; }
+    estimate(c, out);
+    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
+    printf("\n");
+  }
+}
+"""
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+def test_the_c_export_tares_as_predict_does(tmp_path, capsys):
+  """Fitted with --tare on raw counts: the C function takes the raw counts, tares them on the
+  recording's first second as `predict` does, and agrees with it within 1e-5 of each
+  output's scale."""
+  import subprocess
+  paths = []
+  for k in range(2):
+    sensor, reference = _streams(seed=20 + k, start=0.0, quiet=1.5, mix_seed=98)
+    sensor.data[:, 1:] = np.round(sensor.data[:, 1:] + 40 * k)  # counts, a baseline each
+    reference.data[:, 1:] += k
+    m = streams.merge(sensor, reference, lag=LAG)
+    paths.append(tmp_path / f"rec{k}.csv")
+    csvfile.write(paths[-1], m.names, m.data, m.units)
+  est_path = tmp_path / "e.npz"
+  assert cli.main(["fit", "--csv", *map(str, paths), "--inputs", "p*", "--targets",
+                   "Fx,Fy,Fz", "--method", "lsann", "--epochs", "5", "--tare", "1",
+                   "--folds", "2", "--no-progress", "--out", str(est_path)]) == 0
+  assert cli.main(["predict", str(est_path), "--csv", str(paths[1]), "--out",
+                   str(tmp_path / "p.csv")]) == 0
+  assert cli.main(["export", str(est_path), "--c", str(tmp_path / "c")]) == 0
+  capsys.readouterr()
+  want = csvfile.read(tmp_path / "p.csv").data[:, 1:]
+  (tmp_path / "c" / "main.c").write_text(TARE_HARNESS)
+  exe = tmp_path / "est"
+  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                  str(tmp_path / "c" / "estimator.c"), str(tmp_path / "c" / "main.c"), "-lm",
+                  "-o", str(exe)], check=True, capture_output=True, text=True)
+  rec = csvfile.read(paths[1])
+  counts = rec.data[:, 1:7].astype(int)
+  quiet = rec.data[:, 0] - rec.data[0, 0] < 1.0
+  text = "\n".join([str(quiet.sum())] + [" ".join(map(str, r)) for r in counts[quiet]]
+                   + [" ".join(map(str, r)) for r in counts])
+  run = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
+  got = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  scale = np.abs(want).max(axis=0)
+  assert np.max(np.abs(got - want) / scale) < 1e-5
