@@ -153,3 +153,32 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
                 sensor.units + tuple(reference.units[i] for i in ref_cols), lines[keep],
                 used, estimated, int((~inside).sum()), int((inside & gap).sum()),
                 float(max_gap))
+
+
+def two_streams(t: np.ndarray, x: np.ndarray, y: np.ndarray, x_names, y_names, *,
+                lag: float, rng: np.random.Generator, step: int = 1,
+                reference_rate: float = 250.0, x_offset: float = 0.0, y_offset: float = 0.0,
+                x_units=None, y_units=None, name: str = "recording"):
+  """One synchronised recording as a rig would log it in two files (for examples and
+  benchmarks): (sensor `csvfile.Table`, reference `csvfile.Table`).
+
+  The sensor keeps every `step`-th sample, each channel moved by an offset drawn with rms
+  `x_offset` (a baseline of the day) and rounded when `x` is integer; the reference samples
+  `y` at irregular times (each period 0.5-1.5 / reference_rate), linearly interpolated,
+  moved by an offset of rms `y_offset` per column, stamped `lag` s late.
+  """
+  from calibrate import csvfile
+  integer = bool(np.all(x == np.round(x)))
+  xs = x[::step] + rng.normal(0, x_offset, x.shape[1])
+  xs = np.round(xs) if integer else xs
+  tr = np.cumsum(rng.uniform(0.5, 1.5, int((t[-1] - t[0]) * reference_rate) + 1)
+                 / reference_rate) + t[0]
+  tr = tr[tr <= t[-1]]
+  ref = np.column_stack([np.interp(tr, t, col) for col in y.T])
+  ref += rng.normal(0, y_offset, y.shape[1])
+  x_units = tuple(x_units or ("",) * x.shape[1])
+  y_units = tuple(y_units or ("",) * y.shape[1])
+  return (csvfile.Table(("time",) + tuple(x_names), ("s",) + x_units,
+                        np.column_stack([t[::step], xs]), f"{name}_sensor.csv"),
+          csvfile.Table(("time",) + tuple(y_names), ("s",) + y_units,
+                        np.column_stack([tr + lag, ref]), f"{name}_reference.csv"))

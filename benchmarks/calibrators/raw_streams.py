@@ -93,25 +93,10 @@ def _with_rest(scene, rec, rest: float, seed: int):
   return counts, np.vstack([quiet[:, :3], rec.wrench[:, :3]])
 
 
-def _streams(counts, force, dt: float, s: RawStreams, rng):
-  """(sensor (N, 1 + D): time and counts, reference (M, 4): time and force, the reference's
-  offset (3,)) as the rig logs them: the sensor every `STEP` samples with a baseline offset
-  per channel; the reference at irregular ~250 Hz stamped `lag` later, with an offset per
-  axis."""
-  t = np.arange(len(counts)) * dt
-  ts = t[::STEP]
-  sensor = np.column_stack([ts, np.round(counts[::STEP] + rng.normal(0, s.sensor_offset,
-                                                                      counts.shape[1]))])
-  tr = np.cumsum(rng.uniform(0.5, 1.5, int(t[-1] * 250) + 1) / 250)
-  tr = tr[tr <= t[-1]]
-  ref = np.column_stack([np.interp(tr, t, f) for f in force.T])
-  offset = rng.normal(0, s.reference_offset, 3)
-  return sensor, np.column_stack([tr + s.lag, ref + offset]), offset
-
-
 def _recordings(ctx):
   """{name: (sensor stream, reference stream, synchronised counts, synchronised force, and
   that force with the reference's offset)} of the training and test recordings."""
+  from calibrate import streams
   from sim.footpad import protocol, scene as scene_lib
   s = ctx.settings
   base = protocol.base(ctx.quick, ctx.seed)
@@ -126,17 +111,17 @@ def _recordings(ctx):
     rec, _ = scene_lib.generate(scene, ctx.progress(f"footpad {name}"), ctx.use_cache)
     ctx.used(rec)
     counts, force = _with_rest(scene, rec, s.rest, ctx.seed + len(out))
-    sensor, reference, offset = _streams(counts, force, scene.params.timestep, s, rng)
+    t = np.arange(len(counts)) * scene.params.timestep
+    sensor, reference = streams.two_streams(
+        t, counts, force, [f"p{i + 1}" for i in range(counts.shape[1])], ("Fx", "Fy", "Fz"),
+        lag=s.lag, rng=rng, step=STEP, x_offset=s.sensor_offset,
+        y_offset=s.reference_offset, x_units=("counts",) * counts.shape[1],
+        y_units=("N",) * 3, name=name)
+    # the same instants with the reference's offsets: what the merge is measured against
+    offset = np.median(reference.data[:, 1:] - np.column_stack(
+        [np.interp(reference.data[:, 0] - s.lag, t, f) for f in force.T]), axis=0)
     out[name] = (sensor, reference, counts[::STEP], force[::STEP], force[::STEP] + offset)
   return out
-
-
-def _tables(name: str, sensor, reference, d: int):
-  from calibrate import csvfile
-  names = ("time",) + tuple(f"p{i + 1}" for i in range(d))
-  return (csvfile.Table(names, ("s",) + ("counts",) * d, sensor, f"{name}_sensor.csv"),
-          csvfile.Table(("time", "Fx", "Fy", "Fz"), ("s", "N", "N", "N"), reference,
-                        f"{name}_reference.csv"))
 
 
 def _fit_and_score(x, y, rec, xt, yt, epochs: int, seed: int) -> dict:
@@ -171,10 +156,9 @@ def run(ctx):
   folder = ctx.out / "streams"
   folder.mkdir(parents=True, exist_ok=True)
   merged, said = {}, []
-  d = next(iter(recs.values()))[0].shape[1] - 1
+  d = len(next(iter(recs.values()))[0].names) - 1
   tare = prepare.Steps(tare=prepare.Tare(seconds=s.tare))
-  for name, (sensor, reference, *_) in recs.items():
-    a, b = _tables(name, sensor, reference, d)
+  for name, (a, b, *_) in recs.items():
     csvfile.write(folder / a.path, a.names, a.data, a.units)
     csvfile.write(folder / b.path, b.names, b.data, b.units)
     m = streams.merge(a, b)
@@ -202,7 +186,7 @@ def run(ctx):
   for name in recs:
     sensor, _, _, _, force = recs[name]
     merged[name + " synchronised"] = (None, csvfile.Table(
-        merged[name][1].names, merged[name][1].units, np.column_stack([sensor, force]),
+        merged[name][1].names, merged[name][1].units, np.column_stack([sensor.data, force]),
         name))
   for label, steps, suffix in (("synchronised + tare", tare, " synchronised"),
                                ("merged + tare", tare, ""),
