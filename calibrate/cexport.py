@@ -351,15 +351,33 @@ def _tare_code(tare: dict, c: int, counts: bool, info) -> tuple[list[str], list[
 
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
+  from calibrate import estimators
   c = est.n_inputs
   a = _outputs(est)
   w = _Writer()
   members = est.members or (est,)
   if est.parts:  # AUTO: each kept candidate into its own array, then each output from one
     body = [f"  float part[{len(est.parts)}][{a}];"]
+    ls = est.guard()
+    if ls is not None:  # beyond the training box: as `Estimator._guarded`
+      lo, hi = w.array("BOX_LO", est.info.input_lo), w.array("BOX_HI", est.info.input_hi)
+      body += [f"  float inside[{c}], plane[{a}];",
+               f"  for (int i = 0; i < {c}; ++i) inside[i] = x[i] < {lo}[i] ? {lo}[i] : "
+               f"(x[i] > {hi}[i] ? {hi}[i] : x[i]);"]
+      # the LS part at the box's nearest point (x shadowed by it in the block)
+      body += ["  {", "    const float *x = inside;"] + [
+          "  " + line for line in _compute(est.parts[ls], w, c, a, "plane", "BOX_")] + ["  }"]
     for k, part in enumerate(est.parts):
-      body += _compute(part, w, c, a, f"part[{k}]", f"P{k}_")
-    body += [f"  out[{j}] = part[{k}][{j}];" for j, k in enumerate(est.pick)]
+      if ls is not None and part.kind in (estimators.Kind.LSANN, estimators.Kind.NN):
+        body += ["  {", "    const float *x = inside;"] + [
+            "  " + line for line in _compute(part, w, c, a, f"part[{k}]", f"P{k}_")] + ["  }"]
+      else:
+        body += _compute(part, w, c, a, f"part[{k}]", f"P{k}_")
+    for j, k in enumerate(est.pick):
+      guarded = ls is not None and est.parts[k].kind in (estimators.Kind.LSANN,
+                                                          estimators.Kind.NN)
+      body.append(f"  out[{j}] = part[{k}][{j}]" + (f" + part[{ls}][{j}] - plane[{j}];"
+                                                    if guarded else ";"))
   else:
     body = _compute(est, w, c, a, "out")
   names = est.info.outputs if est.info is not None else tuple(f"out{j}" for j in range(a))

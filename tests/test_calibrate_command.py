@@ -277,6 +277,43 @@ def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cr
     assert (tmp_path / "estimator.c").read_text().count("_LIN_COEF[") == 2
 
 
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path):
+  """AUTO keeping a network: inside the training box it is the network; past the box it is
+  the network at the box's nearest point plus the LS plane's rise, in Python and in C."""
+  from calibrate import splits
+  counts, forces = _data()
+  est, _ = estimators.fit_auto(counts, forces, splits.groups(len(counts), "blocks", block=100),
+                               3, candidates=("LS", "NN"), config=FAST, seed=1)
+  nets = [k for k, p in enumerate(est.parts) if p.kind is estimators.Kind.NN]
+  ls = est.guard()
+  assert nets and ls is not None and est.parts[ls].kind is estimators.Kind.LS
+  rng = np.random.default_rng(3)
+  inside = rng.integers(600, 3500, (50, 6)).astype(float)
+  beyond = rng.integers(0, 4095, (200, 6)).astype(float)
+  with __import__("warnings").catch_warnings():
+    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
+    got_in, got = est.predict(inside), est.predict(beyond)
+    box = np.clip(beyond, est.info.input_lo, est.info.input_hi)
+    part, lin = est.parts[nets[0]], est.parts[ls]
+    want = part.predict(box) + lin.predict(beyond) - lin.predict(box)
+  for j, k in enumerate(est.pick):
+    if k == nets[0]:
+      np.testing.assert_allclose(got_in[:, j], part.predict(inside)[:, j])
+      np.testing.assert_allclose(got[:, j], want[:, j])
+  cexport.write(est, tmp_path)
+  (tmp_path / "main.c").write_text(HARNESS)
+  exe = tmp_path / "est"
+  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
+                  str(exe)], check=True, capture_output=True, text=True)
+  run = subprocess.run([str(exe)], input="\n".join(" ".join(str(int(v)) for v in r)
+                                                   for r in beyond),
+                       capture_output=True, text=True, check=True)
+  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  assert np.max(np.abs(c_out - got) / np.abs(got).max(axis=0)) < 1e-5
+
+
 def test_the_export_report_counts_a_known_network():
   """LSANN, 6 inputs, 10 hidden, 3 outputs: LS 6 x 3 = 18, network 10 x 7 + 3 x 11 + 6 + 3
   = 112, the final scaling 3: 133 multiply-adds; weights (6 + 6 + 18 + 3) + (6 + 6 + 70 +
