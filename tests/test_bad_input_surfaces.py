@@ -503,3 +503,17 @@ def test_a_reader_that_leaves_early_loses_no_work(csvs, tmp_path):
                        text=True)
   assert run.returncode == 0 and "Traceback" not in run.stderr and "internal" not in run.stderr
   assert (tmp_path / "ev" / "metrics.json").exists()
+
+
+def test_a_swallowed_ctrl_c_stops_at_the_next_progress_step():
+  """A KeyboardInterrupt raised inside a finaliser is swallowed by Python; the request stays,
+  and the next progress step (a bar or --no-progress's silent one) raises it again."""
+  from util import interrupt, progress
+  with interrupt.handled():
+    progress.quiet(1, 3)  # nothing asked: nothing raised
+    interrupt._requested.set()
+    with pytest.raises(KeyboardInterrupt):
+      progress.quiet(2, 3)
+    with pytest.raises(KeyboardInterrupt):
+      progress.progress_bar("x")(1, 3)
+  progress.quiet(3, 3)  # the command is over: the request is gone

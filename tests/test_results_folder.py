@@ -89,8 +89,10 @@ def test_progress_piped_is_one_line_per_stage(tmp_path, capsys):
   bar(3, 3)  # training stopped early: the stage ends
   err = capsys.readouterr().err.strip().splitlines()
   assert len(err) == 1 and err[0].startswith("LSANN seed 1/5: 3 done in")
-  assert Context(quick=True, seed=0, out=tmp_path, settings=None,
-                 show_progress=False).progress("x") is None
+  silent = Context(quick=True, seed=0, out=tmp_path, settings=None,
+                   show_progress=False).progress("x")
+  silent(1, 3)  # --no-progress: draws nothing
+  assert capsys.readouterr().err == ""
 
 
 def test_training_closes_its_progress_when_it_stops_early():
