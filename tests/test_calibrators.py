@@ -124,3 +124,23 @@ def test_blocks_split_holds_out_whole_contiguous_blocks():
   assert np.mean(np.diff(single) == 1) < 0.3
   with pytest.raises(ValueError, match="validation block"):
     estimators.split_validation(100, 0.15, seed=0, block=80)
+
+
+def test_fits_on_several_processes_equal_serial_ones_to_the_bit():
+  """`calibrate.parallel.fit_all`: the same jobs on two spawned workers and one after
+  another in this process give the same weights, bit for bit (each fit its own seed)."""
+  from calibrate import estimators, linear, mlp, parallel
+  rng = np.random.default_rng(0)
+  x = rng.uniform(0, 4000, (600, 6))
+  y = np.column_stack([np.tanh(x[:, 0] / 2000 - 1), x[:, 1] / 1000, x[:, 2:].sum(axis=1) / 4000])
+  lin = linear.fit_linear(x, y)
+  config = mlp.LMConfig(hidden=4, epochs=5)
+  jobs = [dict(kind=kind, counts="x", forces="y", seed=seed, config=config, linear_fit=lin)
+          for seed in (3, 4) for kind in (estimators.Kind.LSANN, estimators.Kind.NN)]
+  serial = parallel.fit_all({"x": x, "y": y}, jobs, workers=1)
+  spread = parallel.fit_all({"x": x, "y": y}, jobs, workers=2)
+  for a, b in zip(serial, spread):
+    assert a.kind == b.kind
+    for f in ("w1", "w2"):
+      np.testing.assert_array_equal(getattr(a.net, f), getattr(b.net, f))
+    np.testing.assert_array_equal(a.predict(x), b.predict(x))

@@ -148,12 +148,14 @@ def _fit_networks(ctx, ls, nn_train, test, child: list[int], names: dict, est_di
   per_seed = []
   fitted = {"LS": [ls], "LSANN": [], "NN": []}
   on_test = {"LS": [ls.predict(test.counts)], "LSANN": [], "NN": []}
+  kinds = (estimators.Kind.LSANN, estimators.Kind.NN)
+  jobs = [dict(kind=kind, counts="x", forces="y", linear_fit=ls.linear, seed=seed, **names)
+          for seed in child for kind in kinds]
+  nets = iter(_fit_all(ctx, nn_train, jobs, f"networks ({len(child)} seeds x 2)"))
   for k, seed in enumerate(child):
     row, trained = {"seed": seed}, {}
-    for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
-      est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
-                           seed=seed, progress=ctx.progress(
-                               f"{kind.value} seed {k + 1}/{len(child)}"), **names)
+    for kind in kinds:
+      est = next(nets)
       est.save(est_dir / f"{kind.value}_seed{k}.npz")
       fitted[kind.value].append(est)
       on_test[kind.value].append(est.predict(test.counts))
@@ -171,6 +173,16 @@ def _fit_networks(ctx, ls, nn_train, test, child: list[int], names: dict, est_di
     row["iterations_to_common"] = {"LSANN": lsann.epochs_to(common), "NN": nn.epochs_to(common)}
     per_seed.append(row)
   return per_seed, fitted, on_test
+
+
+def _fit_all(ctx, nn_train, jobs: list, label: str) -> list:
+  """The network fits of `jobs` on every core the run's executor has (`--executor serial`:
+  one after another), each identical to a serial fit (`calibrate.parallel`)."""
+  from calibrate import parallel
+  spec = ctx.executor
+  workers = 1 if spec.kind == "serial" else spec.count()
+  return parallel.fit_all({"x": nn_train.counts, "y": nn_train.wrench[:, :3]}, jobs, workers,
+                          ctx.progress(label))
 
 
 def _medians(per_seed: list, ls_pred, truth, ls_seconds: float) -> dict:
@@ -335,12 +347,14 @@ def _blocks_split(ctx, ls, nn_train, test, seeds, per_seed) -> dict:
   out = {"block_samples": BLOCK, "seeds": list(seeds)}
   ctx.print(f"\nvalidation split (first {len(seeds)} seeds): single samples (the paper's) "
             f"against contiguous {BLOCK / 1000:g} s blocks; test NRMSE % Z/Y/X, epochs, stop")
-  for kind in (estimators.Kind.LSANN, estimators.Kind.NN):
+  kinds = (estimators.Kind.LSANN, estimators.Kind.NN)
+  jobs = [dict(kind=kind, counts="x", forces="y", linear_fit=ls.linear, seed=seed,
+               val_block=BLOCK) for kind in kinds for seed in seeds]
+  nets = iter(_fit_all(ctx, nn_train, jobs, "networks, blocks split"))
+  for kind in kinds:
     rows = []
-    for k, seed in enumerate(seeds):
-      est = estimators.fit(kind, nn_train.counts, nn_train.wrench[:, :3], linear_fit=ls.linear,
-                           seed=seed, val_block=BLOCK,
-                           progress=ctx.progress(f"{kind.value} blocks seed {k + 1}"))
+    for _ in seeds:
+      est = next(nets)
       rows.append({"test": metrics.summary(est.predict(test.counts), truth, AXES),
                    "train": {"iterations": est.training.epochs,
                              "stop": est.training.stop.name}})
