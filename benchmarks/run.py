@@ -63,14 +63,15 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
                            "--help)")
   parser.add_argument("--executor", choices=("processes", "serial", "dask"), default="processes",
-                      help="where a sweep's points and a table's network trainings run: "
-                           "local processes on every core (default), this process, or Dask "
-                           "for sweeps (an optional extra: pip install -e '.[cluster]'; the "
-                           "trainings then use local processes); without --address Dask "
-                           "starts a LocalCluster listening on 127.0.0.1 only")
+                      help="where a sweep's points run: local processes on every core "
+                           "(default), this process, or Dask (an optional extra: pip install "
+                           "-e '.[cluster]'); without --address Dask starts a LocalCluster "
+                           "listening on 127.0.0.1 only")
   parser.add_argument("--workers", type=int, default=None,
-                      help="processes or Dask workers for a sweep, processes for the "
-                           "trainings (default: one per core)")
+                      help="processes or Dask workers for a sweep (default: one per core); "
+                           "for Table I's network trainings, how many train at once "
+                           "(default: one at a time, which keeps their reported times "
+                           "honest)")
   parser.add_argument("--address", default=None,
                       help="join a running Dask scheduler (tls://HOST:PORT, or tcp:// on a "
                            "trusted network); TLS certificates come from Dask's configuration "

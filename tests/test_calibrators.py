@@ -127,8 +127,8 @@ def test_blocks_split_holds_out_whole_contiguous_blocks():
 
 
 def test_fits_on_several_processes_equal_serial_ones_to_the_bit():
-  """`calibrate.parallel.fit_all`: the same jobs on two spawned workers and one after
-  another in this process give the same weights, bit for bit (each fit its own seed)."""
+  """`calibrate.parallel.fit_all`: the same jobs on two workers and one after another in
+  one worker give the same weights, bit for bit (each fit its own seed, one thread each)."""
   from calibrate import estimators, linear, mlp, parallel
   rng = np.random.default_rng(0)
   x = rng.uniform(0, 4000, (600, 6))

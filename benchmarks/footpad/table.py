@@ -176,11 +176,15 @@ def _fit_networks(ctx, ls, nn_train, test, child: list[int], names: dict, est_di
 
 
 def _fit_all(ctx, nn_train, jobs: list, label: str) -> list:
-  """The network fits of `jobs` on every core the run's executor has (`--executor serial`:
-  one after another), each identical to a serial fit (`calibrate.parallel`)."""
+  """The network fits of `jobs`, one after another, or `--workers N` at a time when given
+  (`calibrate.parallel`: each identical to the serial fit, bit for bit). One at a time is
+  the default because Table I reports each network's training time, and on a 2-core machine
+  two trainings at once took 2.2x as long each (measured: NN-only at the quick protocol's
+  N = 28,803, 7.1 s alone, 15.6 s beside another; the LM epoch streams its N x 81 Gram
+  blocks through memory), so the batch gained nothing and the times would mislead."""
   from calibrate import parallel
   spec = ctx.executor
-  workers = 1 if spec.kind == "serial" else spec.count()
+  workers = spec.workers if spec.kind != "serial" and spec.workers else 1
   return parallel.fit_all({"x": nn_train.counts, "y": nn_train.wrench[:, :3]}, jobs, workers,
                           ctx.progress(label))
 
