@@ -1,4 +1,12 @@
-"""footpad_throughput: scene steps/s against bare mj_step, and the sensor chain's share."""
+"""footpad_throughput: scene steps/s against bare mj_step, and the sensor chain's share;
+then, each as a ratio measured in this one run (the machine's load printed with it): the
+viscoelastic model's step cost against the friction-only model's, one LM epoch against the
+structured Gram floor it needs (u blocks, N x 81, `u.T @ u` in OpenBLAS), and network
+trainings two at a time (`calibrate.parallel`) against one at a time.
+
+The targets of the speed work (issue: the main job in minutes) read off these: scene/bare
+in contact >= 0.9, viscoelastic/friction-only <= 1.3, epoch/Gram floor <= 1.5.
+"""
 
 from __future__ import annotations
 
@@ -31,4 +39,71 @@ def run(ctx) -> dict:
             f"= {res['scene_vs_bare_per_thread']:.2f}")
   ctx.print(f"sensor chain: {t.sensor_chain_cpu:.3f} thread-s = "
             f"{res['sensor_chain_share']:.1%} of the physics' {t.physics_cpu:.2f} thread-s")
+  res.update(_viscoelastic_cost(ctx, scene, bare))
+  res.update(_epoch_against_gram(ctx, rec))
+  res.update(_parallel_training(ctx, rec))
+  import os
+  res["load_average"] = os.getloadavg()
+  ctx.print("load average (1, 5, 15 min) at the end: " + ", ".join(
+      f"{v:.2f}" for v in res["load_average"]))
   return {"samples": len(rec), "effects": list(scene.effects), "timing": res}
+
+
+def _viscoelastic_cost(ctx, scene, bare: float) -> dict:
+  """Bare mj_step of the model with and without its viscoelastic arms, in contact."""
+  from sim.footpad import effects as fx, scene as scene_lib
+  if fx.VISCOELASTIC.name not in scene.effects:
+    return {}
+  plain = dataclasses.replace(scene, effects=tuple(e for e in scene.effects
+                                                   if e != fx.VISCOELASTIC.name))
+  rate = scene_lib.bare_step_rate(plain)
+  ctx.print(f"bare mj_step in contact: viscoelastic model {bare:,.0f} steps/s, without its "
+            f"arms {rate:,.0f}: step cost ratio {rate / bare:.2f}")
+  return {"bare_mj_step_per_s_no_viscoelastic": rate, "viscoelastic_step_cost_ratio":
+          rate / bare}
+
+
+def _epoch_against_gram(ctx, rec, epochs: int = 20) -> dict:
+  """One LM epoch of a 10-unit network on the recording's samples against the time of the
+  Gram product it needs, (N, 81) u blocks in float64 through OpenBLAS, one thread each."""
+  import time
+  import numpy as np
+  from threadpoolctl import threadpool_limits
+  from calibrate import mlp
+  x, y = rec.counts, rec.wrench[:, :3]
+  n = len(x)
+  with threadpool_limits(1):
+    u = np.random.default_rng(0).normal(size=(n, 81))
+    best = np.inf
+    for _ in range(5):
+      t0 = time.perf_counter()
+      u.T @ u
+      best = min(best, time.perf_counter() - t0)
+  res = mlp.train(x, y, x[:1000], y[:1000], mlp.LMConfig(epochs=epochs, max_fail=epochs + 1),
+                  seed=0)
+  epoch = float(np.median(np.diff(res.times)))
+  ctx.print(f"LM epoch at N = {n:,} (median of {res.epochs}, JIT {res.compile_seconds:.1f} s "
+            f"apart): {epoch * 1e3:.1f} ms; Gram floor (N x 81, OpenBLAS, 1 thread) "
+            f"{best * 1e3:.1f} ms: ratio {epoch / best:.2f}")
+  return {"lm_epoch_s": epoch, "gram_floor_s": best, "epoch_over_gram": epoch / best,
+          "lm_samples": n}
+
+
+def _parallel_training(ctx, rec) -> dict:
+  """Two NN-only fits one at a time (one worker) and at once (two workers)."""
+  import time
+  from calibrate import parallel
+  data = {"x": rec.counts[::4], "y": rec.wrench[::4, :3]}
+  jobs = [dict(kind="NN", counts="x", forces="y", seed=s) for s in (1, 2)]
+  out = {}
+  for workers in (1, 2):
+    t0 = time.perf_counter()
+    fits = parallel.fit_all(data, jobs, workers)
+    out[workers] = (time.perf_counter() - t0, [f.training.seconds for f in fits])
+  (w1, s1), (w2, s2) = out[1], out[2]
+  ctx.print(f"two NN-only fits on {len(data['x']):,} samples: one at a time {w1:.1f} s wall "
+            f"(training {' + '.join(f'{v:.1f}' for v in s1)} s), two at once {w2:.1f} s "
+            f"(training {' + '.join(f'{v:.1f}' for v in s2)} s): parallel/serial wall "
+            f"{w2 / w1:.2f}")
+  return {"training_serial_wall_s": w1, "training_parallel_wall_s": w2,
+          "parallel_over_serial": w2 / w1}
