@@ -270,6 +270,23 @@ def residuals(theta, x, y, h: int):
   return (y - _forward(theta, x, h, x.shape[1], y.shape[1])).ravel()
 
 
+def jacobian(theta, x, y, h: int):
+  """(N O, P) Jacobian of `residuals` with respect to theta, from the layers in closed form
+  (what `normal_equations` builds its Gram blocks from), not by automatic differentiation:
+  d e[n, o] / d w1[j, k] = -w2[o, j] (1 - hid[n, j]^2) a[n, k] and
+  d e[n, o] / d w2[o', j] = -[o = o'] hh[n, j]. The solvers `lm_solvers` races are all given
+  this one, so the race times the solvers and not each library's Jacobian assembly."""
+  n, d = x.shape
+  o = y.shape[1]
+  w1, w2 = _unpack(theta, h, d, o)
+  a, hid, hh = _layers(w1, x)
+  g = 1.0 - hid**2  # (N, H)
+  j1 = -(w2[None, :, :h, None] * g[:, None, :, None] * a[:, None, None, :])  # (N, O, H, D+1)
+  j2 = -(jnp.eye(o, dtype=x.dtype)[None, :, :, None] * hh[:, None, None, :])  # (N, O, O, H+1)
+  return jnp.concatenate([j1.reshape(n, o, -1), j2.reshape(n, o, -1)], axis=2).reshape(
+      n * o, -1)
+
+
 @float64
 def nguyen_widrow(key, d: int, h: int, o: int) -> jnp.ndarray:
   """Start point: Nguyen-Widrow hidden layer for inputs in [-1, 1], small random outputs.

@@ -38,6 +38,17 @@ def test_normal_equations_match_jacfwd():
   assert jtj.dtype == jnp.float64
 
 
+def test_the_closed_form_jacobian_is_jacfwds():
+  """`mlp.jacobian`, which lm_solvers hands every library, against automatic
+  differentiation, on a network with three outputs."""
+  x, y, theta = _teacher(o=3)
+  args = (jnp.asarray(x), jnp.asarray(y), 4)
+  want = jax.jacfwd(mlp.residuals)(theta, *args)
+  got = mlp.jacobian(theta, *args)
+  assert got.shape == want.shape
+  np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * float(jnp.max(jnp.abs(want))))
+
+
 @pytest.mark.parametrize("damping", ["trainlm", "nielsen"])
 def test_recovers_noiseless_teacher_data(damping):
   x, y, _ = _teacher(n=600)

@@ -217,7 +217,9 @@ def _reference_solvers(ctx, p: _Problem, target: float) -> list[dict]:
   from calibrate import mlp
   cap = 60.0 if ctx.quick else 300.0
   res_fn = jax.jit(lambda t: mlp.residuals(t, p.xj, p.yj, p.hidden))
-  jac_fn = jax.jit(lambda t: jax.jacfwd(mlp.residuals)(t, p.xj, p.yj, p.hidden))
+  # one analytic Jacobian for every library (`mlp.jacobian`): with jax.jacfwd, assembling J
+  # took 88 % of a mujoco.minimize iteration, and the race timed that, not the solvers
+  jac_fn = jax.jit(lambda t: mlp.jacobian(t, p.xj, p.yj, p.hidden))
   t = time.perf_counter()
   jax.block_until_ready((res_fn(jnp.asarray(p.theta0)), jac_fn(jnp.asarray(p.theta0))))
   compile_ref = time.perf_counter() - t
