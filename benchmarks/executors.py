@@ -33,7 +33,7 @@ import traceback
 import warnings
 from typing import Any, Callable, Iterator, Literal, Optional
 
-from util import errors, files
+from util import errors, files, workers as util_workers
 
 Point = dict[str, Any]
 Progress = Callable[[int, int], None]
@@ -184,43 +184,18 @@ _ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
                                        "MKL_NUM_THREADS")}
 
 
-def _set_env(values: dict[str, Optional[str]]) -> dict[str, Optional[str]]:
-  old = {k: os.environ.get(k) for k in values}
-  for k, v in values.items():
-    if v is None:
-      os.environ.pop(k, None)
-    else:
-      os.environ[k] = v
-  return old
-
-
 def _processes(fn, items, workers: int, one_at_a_time: bool):
   """Points on a pool of spawned processes. A worker's death breaks the whole pool and fails
   every point still on it, so all of those are charged an attempt; the retry round then runs
   points one at a time (`one_at_a_time`), so that a point which kills its worker fails alone."""
   ctx = multiprocessing.get_context("spawn")
-  old = _set_env(_ONE_THREAD)  # the workers, spawned as needed, inherit the environment
-  try:
+  with util_workers.environment(_ONE_THREAD):  # the workers, spawned as needed, inherit it
     yield from _pool(fn, items, ctx, workers, one_at_a_time)
-  finally:
-    _set_env(old)
-
-
-def _die_with_parent(parent: int) -> None:
-  """A worker's initializer: the worker exits once the process that started it is gone.
-  Without it, a sweep whose command was killed (not Ctrl-C'd) leaves its workers computing
-  their points to the end, each holding a core (seen on a shared machine)."""
-  import threading
-
-  def watch():
-    while os.getppid() == parent:
-      time.sleep(1.0)
-    os._exit(1)
-  threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
 
 
 def _pool(fn, items, ctx, workers: int, one_at_a_time: bool):
-  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx, initializer=_die_with_parent,
+  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx,
+                                              initializer=util_workers.die_with_parent,
                                               initargs=(os.getpid(),)) as pool:
     if one_at_a_time:
       for i, point in items:

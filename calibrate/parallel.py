@@ -26,11 +26,11 @@ from __future__ import annotations
 import concurrent.futures
 import multiprocessing
 import os
-import threading
-import time
 from typing import Callable, Optional, Sequence
 
 import numpy as np
+
+from util import workers as workers_lib
 
 _DATA: dict = {}  # a worker's copy of `data`
 # set in the workers' environment before they start (XLA reads its flags once, at import)
@@ -39,15 +39,9 @@ ONE_THREAD = {"XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallel
 
 
 def _start(data: dict, parent: int) -> None:
-  """A worker's initializer: keep the shared arrays, and exit once the parent is gone (a
-  killed command must not leave trainings holding the cores)."""
+  """A worker's initializer: keep the shared arrays, and exit once the parent is gone."""
   _DATA.update(data)
-
-  def watch():
-    while os.getppid() == parent:
-      time.sleep(1.0)
-    os._exit(1)
-  threading.Thread(target=watch, daemon=True, name="die-with-parent").start()
+  workers_lib.die_with_parent(parent)
 
 
 def _fit(job: dict):
@@ -81,16 +75,8 @@ def fit_all(data: dict[str, np.ndarray], jobs: Sequence[dict], workers: int = 1,
       _DATA.clear()
     return out
   ctx = multiprocessing.get_context("spawn")
-  before = {k: os.environ.get(k) for k in ONE_THREAD}
-  os.environ.update(ONE_THREAD)  # inherited by the workers, spawned at the first submit
-  try:
+  with workers_lib.environment(ONE_THREAD):  # inherited by the workers, spawned at submit
     return _pool(ctx, data, jobs, out, min(workers, len(jobs)), progress)
-  finally:
-    for k, v in before.items():
-      if v is None:
-        os.environ.pop(k, None)
-      else:
-        os.environ[k] = v
 
 
 def _pool(ctx, data, jobs, out, workers, progress):

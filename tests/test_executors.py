@@ -94,11 +94,11 @@ def test_a_killed_sweep_leaves_no_worker_running(tmp_path):
   import sys
   import time
   script = ("import concurrent.futures, multiprocessing, os, time\n"
-            "from benchmarks import executors\n"
+            "from util import workers\n"
             "if __name__ == '__main__':\n"
             "  ctx = multiprocessing.get_context('spawn')\n"
             "  pool = concurrent.futures.ProcessPoolExecutor(1, mp_context=ctx,\n"
-            "      initializer=executors._die_with_parent, initargs=(os.getpid(),))\n"
+            "      initializer=workers.die_with_parent, initargs=(os.getpid(),))\n"
             "  print(pool.submit(os.getpid).result(), flush=True)\n"
             "  pool.submit(time.sleep, 120)\n"
             "  time.sleep(120)\n")
