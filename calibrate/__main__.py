@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from calibrate import csvfile, prepare, splits as splits_lib
+from calibrate import csvfile, prepare, splits as splits_lib, streams
 from util import cli, errors, files
 
 METHODS = ("ls", "poly", "lsann", "nn", "auto")
@@ -87,7 +87,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="the interval level whose coverage to report (default 0.95)")
   p = sub.add_parser("merge", help="two raw streams (sensor, reference) into one recording",
                      formatter_class=argparse.RawDescriptionHelpFormatter,
-                     description=streams_doc())
+                     description=streams.__doc__)
   p.add_argument("pairs", type=cli.path_arg, nargs="+", metavar="SENSOR.csv REFERENCE.csv",
                  help="a sensor file and its reference file; several pairs for several "
                       "recordings")
@@ -99,7 +99,7 @@ def _parser() -> argparse.ArgumentParser:
                  help="the largest lag the estimate considers, seconds (default 1)")
   p.add_argument("--max-gap", type=float, default=None, metavar="SECONDS",
                  help="the longest reference gap interpolated across (default "
-                      f"{3:g} median reference periods)")
+                      f"{streams.GAP_PERIODS:g} median reference periods)")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   _cleaning_args(p)
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("merged"),
@@ -152,11 +152,6 @@ def _rails(text: str) -> tuple[float, float]:
   except ValueError:
     raise argparse.ArgumentTypeError(f"{text!r}: give two numbers, LO,HI") from None
   return lo, hi
-
-
-def streams_doc() -> str:
-  from calibrate import streams
-  return streams.__doc__
 
 
 def _lag(text: str) -> Optional[float]:
@@ -382,9 +377,10 @@ def _with_preparation(est, record: dict):
       est.info, settings={**est.info.settings, "prepare": record}))
 
 
-def _new_recording(est, args):
-  """(table, inputs (N, C), the rows kept) of `predict` and `evaluate`: the recording read
-  and prepared as the estimator's training recordings were (its unwrap and tare)."""
+def _new_recording(est, args, targets: bool = False):
+  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recording read and
+  prepared as the estimator's training recordings were (its unwrap and tare), with the
+  estimator's outputs as targets when `targets` (tared by the same rule)."""
   table = csvfile.read(args.csv, args.time_column, drop_nan=args.drop_nan,
                        dedupe=args.dedupe)
   names = est.info.inputs if est.info is not None else None
@@ -392,10 +388,12 @@ def _new_recording(est, args):
     raise errors.DataError(f"{args.command}: the estimator holds no input names (fitted "
                            f"before they were saved): fit it again")
   ins = table.columns(list(names), "--csv (the estimator's inputs)")
+  outs = table.columns(list(est.info.outputs), "--csv (the estimator's outputs)") \
+      if targets else None
   record = est.info.settings.get("prepare") or {}
   periods = record.get("unwrap_periods")
   tare = prepare.Tare.from_json(record.get("tare"))
-  ready = prepare.apply([table], ins, None, prepare.Steps(None, args.rails, args.drop_rails,
+  ready = prepare.apply([table], ins, outs, prepare.Steps(None, args.rails, args.drop_rails,
                                                           tare),
                         None if periods is None else np.asarray(periods))
   for line in table.cleaned + ready.said:
@@ -514,14 +512,8 @@ def evaluate(args) -> int:
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
   est = estimators.Estimator.load(args.estimator)
-  table, ready = _new_recording(est, args)
-  x = ready.x
-  outs = table.columns(list(est.info.outputs), "--csv (the estimator's outputs)")
-  full = table.data[:, outs]
-  truth = full[ready.rows]
-  tare = prepare.Tare.from_json((est.info.settings.get("prepare") or {}).get("tare"))
-  if tare is not None:  # the truth tared by the same rule, as in training
-    truth = truth - np.median(full[tare.rows(table, table.path)], axis=0)
+  table, ready = _new_recording(est, args, targets=True)
+  x, truth = ready.x, ready.y  # the truth tared by the same rule, as in training
   pred = est.predict(x)
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)

@@ -387,6 +387,8 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
   arg = "const uint16_t counts[ESTIMATOR_INPUTS]" if counts else \
       "const float inputs[ESTIMATOR_INPUTS]"
   in_units = est.info.input_units if est.info is not None else ("counts",) * c
+  tare = _tare(est)
+  tare_h, tare_c = _tare_code(tare, c, counts, est.info) if tare else ([], [])
   header = "\n".join([
       "/* Force estimator exported by the tactile testbench (python -m calibrate export).",
       f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if est.members
@@ -408,13 +410,9 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       f"/* where each column sits in {'counts' if counts else 'inputs'}[] and out[] */"]
       + [f"#define ESTIMATOR_IN_{n} {i}" for i, n in enumerate(identifiers(inputs))]
       + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
-      f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);",
-      "", "#endif", ""])
-  tare = _tare(est)
+      f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);", ""]
+      + tare_h + ["#endif", ""])
   name = "counts" if counts else "inputs"
-  tare_h, tare_c = _tare_code(tare, c, counts, est.info) if tare else ([], [])
-  header = header.replace("\n#endif\n", "\n" + "\n".join(tare_h) + ("\n" if tare_h else "")
-                          + "#endif\n")
   source = "\n".join(
       ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + tare_c + [
           "",
