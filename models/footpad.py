@@ -192,19 +192,21 @@ class FootpadParams:
 
 
 def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool = False,
-               stiffness: np.ndarray | None = None) -> mujoco.MjSpec:
+               stiffness: np.ndarray | None = None,
+               contact_sensors: bool = False) -> mujoco.MjSpec:
   """Builds the rig as an MjSpec.
 
   Args:
     params: physical parameters.
     friction: frictional contact (condim 3) when True; frictionless (condim 1) otherwise.
     viscoelastic: each element's springs become two-term Prony solids (`FootpadParams.prony`),
-      per axis: the relaxed spring (a fixed tendon over the axis's two joints) in parallel
-      with two Maxwell arms: one with its spring on the tip's joint and its dashpot on an
-      intermediate body's joint, one with its spring a tendon over both and its dashpot on a
-      body of its own.
+      per axis: the joint keeps the relaxed spring, in parallel with two Maxwell arms
+      (`maxwell_arm`), which add activation states but no bodies or joints.
     stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
       (`FootpadParams.element_stiffness`); see `sim.footpad.layer.element_stiffness`.
+    contact_sensors: a contact sensor per tip, "contact{e}" (found, force and relative
+      velocity in the contact frame, 7 values), after the plate's force and torque: what the
+      `stick_slip` effect's state machine reads from a rollout.
   Returns:
     The spec; compile with `spec.compile()`.
   """
@@ -267,45 +269,20 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   dx, dy = params.element_size
   centres = params.element_centres()
   sag = params.crown_sag()
+  g1, tau1, g2, tau2 = params.prony
+  arms = ((g1, tau1), (g2, tau2)) if viscoelastic else ()
+  relaxed = 1.0 - sum(g for g, _ in arms)
   for e in range(params.num_elements):
     h_local = params.thickness - sag[e]
     mass = params.density * dx * dy * h_local
     r = params.tip_radius
-    parent = carriage
-    pos = [centres[e, 0], centres[e, 1], sag[e] + r]
-    tip_k = k[e]
-    g1, tau1, g2, tau2 = params.prony
-    if viscoelastic:  # the first arm: a dashpot on an intermediate body, its spring on the tip
-      tip_k = g1 * k[e]
-      parent = carriage.add_body(name=f"el{e}_v", pos=pos)
-      for i, axis in enumerate(AXES):
-        parent.add_joint(name=f"el{e}_{axis}v", type=mujoco.mjtJoint.mjJNT_SLIDE,
-                         axis=np.eye(3)[i], damping=tip_k[i] * tau1)
-      parent.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
-                      contype=0, conaffinity=0, group=3)
-      # the second arm's dashpot, on a body of its own beside the element
-      slow = carriage.add_body(name=f"el{e}_w", pos=pos)
-      for i, axis in enumerate(AXES):
-        slow.add_joint(name=f"el{e}_{axis}w", type=mujoco.mjtJoint.mjJNT_SLIDE,
-                       axis=np.eye(3)[i], damping=g2 * k[e, i] * tau2)
-      slow.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r / 2, 0, 0], mass=mass / 10,
-                    contype=0, conaffinity=0, group=3)
-      pos = [0, 0, 0]
-    el = parent.add_body(name=f"el{e}", pos=pos)
+    el = carriage.add_body(name=f"el{e}", pos=[centres[e, 0], centres[e, 1], sag[e] + r])
     for i, axis in enumerate(AXES):
       el.add_joint(name=f"el{e}_{axis}", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i],
-                   stiffness=tip_k[i],
+                   stiffness=k[e, i] * relaxed,
                    damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
-    if viscoelastic:  # the relaxed springs span both joints of each axis (the deflection);
-      for i, axis in enumerate(AXES):  # the second arm's spring, the deflection less its own
-        tendon = spec.add_tendon(name=f"el{e}_long_{axis}",
-                                 stiffness=[(1 - g1 - g2) * k[e, i], 0, 0])
-        tendon.wrap_joint(f"el{e}_{axis}v", 1.0)
-        tendon.wrap_joint(f"el{e}_{axis}", 1.0)
-        tendon = spec.add_tendon(name=f"el{e}_slow_{axis}", stiffness=[g2 * k[e, i], 0, 0])
-        tendon.wrap_joint(f"el{e}_{axis}v", 1.0)
-        tendon.wrap_joint(f"el{e}_{axis}", 1.0)
-        tendon.wrap_joint(f"el{e}_{axis}w", -1.0)
+      for arm, (g, tau) in enumerate(arms):
+        maxwell_arm(spec, f"el{e}_{axis}", g * k[e, i], tau, f"el{e}_{axis}_arm{arm}")
     el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
                 # Tips collide with the plate only, never with each other.
                 contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
@@ -315,12 +292,39 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
   spec.add_sensor(name="ft_torque", type=mujoco.mjtSensor.mjSENS_TORQUE,
                   objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
+  if contact_sensors:
+    fields = mujoco.mjtConDataField
+    data = sum(1 << int(f) for f in (fields.mjCONDATA_FOUND, fields.mjCONDATA_FORCE,
+                                fields.mjCONDATA_LINVEL))
+    for e in range(params.num_elements):
+      sensor = spec.add_sensor(name=f"contact{e}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                               objtype=mujoco.mjtObj.mjOBJ_GEOM, objname="plate",
+                               reftype=mujoco.mjtObj.mjOBJ_GEOM, refname=f"tip{e}")
+      sensor.intprm[:3] = [data, 0, 1]  # those fields, unsorted, one contact
   lighting.light(spec, 0.2)
   return spec
 
 
-def element_state(model: mujoco.MjModel, params: FootpadParams,
-                  qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def maxwell_arm(spec: mujoco.MjSpec, joint: str, stiffness: float, tau: float,
+                name: str) -> None:
+  """Adds a Maxwell arm (a spring of `stiffness` N/m in series with a dashpot of time constant
+  `tau` s, between the carriage and `joint`) as a passive DC motor with inductance.
+
+  The arm's spring stretch y obeys y' = -y/tau - v (v the joint's speed) and pushes the joint
+  with k y. A motor with no voltage input obeys L i' = -R i - K v and pushes with K i: the
+  same equation for i = (k / K) y when L = K^2 / k and R = L / tau. MuJoCo integrates the
+  current as an activation state, so the arm costs one state and no body, joint or
+  constraint (three bodies' worth of degrees of freedom per element before). With K = 1
+  the activation is the arm's force on the joint, N (`element_state` reads it).
+  """
+  inductance = 1.0 / stiffness  # K^2 / k with K = 1 V s/m
+  act = spec.add_actuator(name=name, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+  act.set_to_dcmotor(motorconst=[1.0, 1.0], resistance=inductance / tau,
+                     inductance=[inductance, 0.0], ctrlspec=mujoco.mjtCtrlInput.mjINPUT_NONE)
+
+
+def element_state(model: mujoco.MjModel, params: FootpadParams, qpos: np.ndarray,
+                  act: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
   """Forces the plate applies to the rubber at each element, and the elements' deflections.
 
   The spring rates are read from the model, so they always match what was simulated.
@@ -329,6 +333,8 @@ def element_state(model: mujoco.MjModel, params: FootpadParams,
     model: a model built by `build_spec` with these params (viscoelastic or not).
     params: the same parameters.
     qpos: (..., nq) joint positions.
+    act: (..., na) activations; the viscoelastic model's Maxwell arms hold their forces
+      there (`maxwell_arm`), so it needs them.
   Returns:
     forces (..., num_elements, 3), N, +z compressing the rubber; and deflections
     (..., num_elements, 3), m: how far each element's contact point has moved from its rest
@@ -343,26 +349,19 @@ def element_state(model: mujoco.MjModel, params: FootpadParams,
   else:
     q = qpos[..., idx]
   f = k * q
-  if model.ntendon:  # two-term Prony: relaxed spring and the second arm's on the deflection
-    # qv + q, the first arm's spring on q, the second's stretched by qv + q - qw
-    names = [[f"el{e}_{a}" for a in AXES] for e in range(params.num_elements)]
-
-    def joint_q(suffix):
-      return qpos[..., model.jnt_qposadr[[[model.joint(n + suffix).id for n in row]
-                                          for row in names]]]
-
-    def tendon_k(kind):
-      return model.tendon_stiffness[[[model.tendon(f"el{e}_{kind}_{a}").id for a in AXES]
-                                     for e in range(params.num_elements)]]
-    q = q + joint_q("v")
-    f = f + tendon_k("long") * q + tendon_k("slow") * (q - joint_q("w"))
+  if model.na:  # the arms push the joint with their activations: the plate takes the rest
+    if act is None:
+      raise ValueError("element_state: the viscoelastic model needs act, the Maxwell arms' "
+                       "activations")
+    arms = model.na // (params.num_elements * len(AXES))
+    f = f - act.reshape(act.shape[:-1] + idx.shape + (arms,)).sum(axis=-1)
   return f, q
 
 
-def element_forces(model: mujoco.MjModel, params: FootpadParams,
-                   qpos: np.ndarray) -> np.ndarray:
+def element_forces(model: mujoco.MjModel, params: FootpadParams, qpos: np.ndarray,
+                   act: np.ndarray | None = None) -> np.ndarray:
   """(..., num_elements, 3) forces of `element_state`, N."""
-  return element_state(model, params, qpos)[0]
+  return element_state(model, params, qpos, act)[0]
 
 
 def contact_friction(model: mujoco.MjModel) -> np.ndarray:

@@ -113,7 +113,7 @@ def test_viscoelastic_relaxes_as_its_prony_series(axis):
     mujoco.mj_step(model, data)
     # the deflection, not the CNC's travel: over seconds the soft friction rows let stuck
     # tips creep by ~4 % of a sideways hold (measured)
-    deflection = model_lib.element_state(model, params, data.qpos)[1][:, axis].mean()
+    deflection = model_lib.element_state(model, params, data.qpos, data.act)[1][:, axis].mean()
     rate.append(abs(data.sensordata[axis]) / abs(deflection))
   # the hold is reached over ~40 ms (servo and ramp): compare from 0.1 s on, the series
   # started at the hold's middle

@@ -223,3 +223,71 @@ def test_stick_slip_at_ratio_one_is_identical_to_plain_friction():
     assert a.wrench.tobytes() == b.wrench.tobytes()
   with pytest.raises(ValueError, match="stick_slip together with friction"):
     footpad.simulate(dataclasses.replace(SLIDER, effects=("stick_slip",)))
+
+
+def _step_one_at_a_time(stick, model, data, target):
+  """The stick-slip state machine stepped singly, reading MuJoCo's constraint forces and
+  velocities after each step: the reference for the chunked `StickSlip.roll`."""
+  n, nt = len(target), len(stick.tips)
+  element_of = np.full(model.ngeom, -1)
+  element_of[stick.tips] = np.arange(nt)
+  slip, sens = np.zeros(n), np.empty((n, model.nsensordata))
+  stuck, velocity = np.ones(nt, bool), np.zeros((nt, 2))
+  static = stick.ratio * stick.kinetic
+  model.geom_friction[stick.tips, 0] = static
+  for t in range(n):
+    data.ctrl[:] = target[t]
+    mujoco.mj_step(model, data)
+    sens[t] = data.sensordata
+    nc = data.ncon
+    el = element_of[data.contact.geom[:nc].max(axis=1)]
+    adr = data.contact.efc_address[:nc]
+    fn = data.efc_force[adr]
+    on = (el >= 0) & (fn > footpad.LOADED)
+    el, adr, fn = el[on], adr[on], fn[on]
+    ft = np.hypot(data.efc_force[adr + 1], data.efc_force[adr + 2])
+    vx, vy = data.efc_vel[adr + 1], data.efc_vel[adr + 2]
+    touching = np.zeros(nt, bool)
+    touching[el] = True
+    was = stuck[el]
+    breaks = was & (ft >= footpad.SLIDING * static[el] * fn)
+    halts = ~was & ((np.hypot(vx, vy) < footpad.STICK_SPEED)
+                    | (vx * velocity[el, 0] + vy * velocity[el, 1] < 0))
+    stuck[el[breaks]] = False
+    stuck[el[halts]] = True
+    velocity[el, 0], velocity[el, 1] = vx, vy
+    slip[t] = np.count_nonzero(~stuck[el]) / len(el) if len(el) else 0.0
+    stuck |= ~touching
+    model.geom_friction[stick.tips, 0] = np.where(stuck, static, stick.kinetic)
+  return sens, slip
+
+
+@pytest.mark.parametrize("effects", [("friction", "stick_slip"),
+                                     ("friction", "stick_slip", "viscoelastic")])
+def test_chunked_stick_slip_equals_stepping_one_at_a_time(effects):
+  """Rolled in chunks, re-rolled from each change of coefficient, the state machine gives
+  the slip of every step and the plate's force that single steps give (up to the solver's
+  tolerance: a re-rolled chunk starts from another warm start)."""
+  params = dataclasses.replace(SLIDER.params, static_friction_ratio=1.3)
+  scene = dataclasses.replace(SLIDER, params=params, effects=effects)
+  model = footpad.compile_model(scene)
+  model.geom_friction[model.geom("plate").id, 0] = 0.0
+  tips = np.array([model.geom(f"tip{e}").id for e in range(params.num_elements)])
+  contacts = np.array([model.sensor_adr[model.sensor(f"contact{e}").id]
+                       for e in range(len(tips))])
+  stick = footpad.StickSlip(tips, contacts, np.full(len(tips), params.friction),
+                            params.static_friction_ratio)
+  ep = footpad.episodes(scene, layer.die_kernel(params, scene.kernel))[0]
+  runs = []
+  for roll in (lambda m, d: stick.roll(m, d, ep.target)[3:],
+               lambda m, d: _step_one_at_a_time(stick, m, d, ep.target)):
+    data = mujoco.MjData(model)
+    data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
+    data.ctrl[:] = ep.target[0]
+    mujoco.mj_forward(model, data)
+    runs.append(roll(model, data))
+  (sens, slip), (ref_sens, ref_slip) = runs
+  assert 0.2 < ref_slip.max() and (np.diff(ref_slip) != 0).sum() > 4  # it slid, and stuck
+  np.testing.assert_array_equal(slip, ref_slip)
+  scale = np.abs(ref_sens[:, :3]).max()
+  np.testing.assert_allclose(sens[:, :6], ref_sens[:, :6], rtol=0, atol=1e-6 * scale)

@@ -147,7 +147,8 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
   on = active(scene.effects, EFFECTS)
   return model_lib.build_spec(scene.params, friction=fx.FRICTION in on,
                               viscoelastic=fx.VISCOELASTIC in on,
-                              stiffness=layer.element_stiffness(scene.params)).compile()
+                              stiffness=layer.element_stiffness(scene.params),
+                              contact_sensors=fx.STICK_SLIP in on).compile()
 
 
 def stream_of(eps, session: int = 0) -> int:
@@ -217,8 +218,8 @@ REACH_FLOOR = 25e-6
 
 def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Episode,
                  stick: Optional["StickSlip"] = None):
-  """Rolls one episode out from rest; returns (qpos (T, nq), sensordata (T, ns), slip (T,) or
-  None, seconds). With `stick` the episode steps in Python, the tips' friction following each
+  """Rolls one episode out from rest; returns (qpos (T, nq), act (T, na), sensordata (T, ns),
+  slip (T,) or None, seconds). With `stick` the episode steps in Python, the tips' friction following each
   element's stick-slip state, and slip is the share of loaded elements sliding.
 
   Raises SimulationError if the physics diverged or the CNC did not reach its commands."""
@@ -233,9 +234,11 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
     state0 = np.empty(mujoco.mj_stateSize(model, spec))
     mujoco.mj_getState(model, data, state0, spec)
     state, sens = mujoco.rollout.rollout(model, data, state0, ep.target[None])
-    times, qpos, sens = state[0, :, 0], state[0, :, 1:1 + model.nq], sens[0]
+    a = 1 + model.nq + model.nv
+    times, qpos, act, sens = state[0, :, 0], state[0, :, 1:1 + model.nq], \
+        state[0, :, a:a + model.na], sens[0]
   else:
-    times, qpos, sens, slip = stick.roll(model, data, ep.target)
+    times, qpos, act, sens, slip = stick.roll(model, data, ep.target)
   where = f"footpad {ep.path} at z={ep.z_level * 1e3:.2f} mm"
   physics.check(data, where, "lower the indentation (z_levels) or feed, or params.timestep",
                 times=times, values=(qpos, sens))
@@ -251,7 +254,7 @@ def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Ep
           f"(its servo yields to the pad): raise params.cnc_kp (now "
           f"{model.actuator_gainprm[0, 0]:g} N/m), or lower the indentation or the rubber's "
           f"modulus")
-  return qpos, sens, slip, time.perf_counter() - t0
+  return qpos, act, sens, slip, time.perf_counter() - t0
 
 
 # a sliding element sticks again when its speed over the plate falls below this (m/s) or
@@ -265,56 +268,116 @@ class StickSlip:
   """The `stick_slip` effect's per-element state machine for one model.
 
   Attributes:
-    tips: (E,) the tips' geom ids; their friction is set every step.
-    element_of: (ngeom,) each geom's element index, -1 for geoms that are not tips.
+    tips: (E,) the tips' geom ids; their friction changes as elements stick and slide.
+    contacts: (E,) sensordata addresses of the tips' contact sensors (found, force and
+      relative velocity in the contact frame: `model_lib.build_spec(contact_sensors=True)`).
     kinetic: (E,) each element's kinetic coefficient.
     ratio: static over kinetic coefficient.
   """
   tips: np.ndarray
-  element_of: np.ndarray
+  contacts: np.ndarray
   kinetic: np.ndarray
   ratio: float
 
   def roll(self, model: mujoco.MjModel, data: mujoco.MjData, target: np.ndarray):
     """Steps `target` (T, 3) CNC commands from data's state; returns times (T,), qpos (T, nq),
-    sensordata (T, ns) after each step (as `mujoco.rollout` records them) and the share of
-    loaded elements sliding (T,)."""
-    n = len(target)
+    act (T, na), sensordata (T, ns) after each step (as `mujoco.rollout` records them) and
+    the share of loaded elements sliding (T,).
+
+    The steps run in chunks through `mujoco.rollout` with the friction coefficients fixed.
+    The state machine then reads the chunk's contact sensors: up to the first step at which
+    an element's coefficient must change, the chunk is exactly what stepping one at a time
+    gives (the change takes effect from the next step), so the rest is rolled again from
+    there. Most steps see no change (no sliding sample at 12 of 16 depths), so few are."""
+    n, nt = len(target), len(self.tips)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    warm = data.qacc_warmstart.copy()
     times, slip = np.empty(n), np.zeros(n)
     qpos, sens = np.empty((n, model.nq)), np.empty((n, model.nsensordata))
-    stuck = np.ones(len(self.tips), bool)
-    velocity = np.zeros((len(self.tips), 2))
+    act = np.empty((n, model.na))
+    a = 1 + model.nq + model.nv
+    stuck = np.ones(nt, bool)
+    velocity = np.zeros((nt, 2))
     static = self.ratio * self.kinetic
-    model.geom_friction[self.tips, 0] = static
-    for t in range(n):
-      data.ctrl[:] = target[t]
-      mujoco.mj_step(model, data)
-      times[t] = data.time
-      qpos[t] = data.qpos
-      sens[t] = data.sensordata
-      nc = data.ncon
-      touching = np.zeros(len(self.tips), bool)
-      if nc:
-        contact = data.contact
-        el = self.element_of[contact.geom[:nc].max(axis=1)]
-        adr = contact.efc_address[:nc]
-        fn = data.efc_force[adr]
-        loaded = (el >= 0) & (fn > LOADED)
-        el, adr, fn = el[loaded], adr[loaded], fn[loaded]
-        ft = np.hypot(data.efc_force[adr + 1], data.efc_force[adr + 2])
-        vx, vy = data.efc_vel[adr + 1], data.efc_vel[adr + 2]
-        touching[el] = True
-        was_stuck = stuck[el]
-        breaks = was_stuck & (ft >= SLIDING * static[el] * fn)
-        halts = ~was_stuck & ((np.hypot(vx, vy) < STICK_SPEED)
-                              | (vx * velocity[el, 0] + vy * velocity[el, 1] < 0))
-        stuck[el[breaks]] = False
-        stuck[el[halts]] = True
-        velocity[el, 0], velocity[el, 1] = vx, vy
-        slip[t] = np.count_nonzero(~stuck[el]) / len(el) if len(el) else 0.0
-      stuck |= ~touching  # an element that lifts off touches down stuck
+    t, chunk = 0, CHUNK[0]
+    columns = self.contacts[:, None] + np.arange(7)
+    while t < n:
+      c = min(chunk, n - t)
       model.geom_friction[self.tips, 0] = np.where(stuck, static, self.kinetic)
-    return times, qpos, sens, slip
+      st, sd = mujoco.rollout.rollout(model, data, state, target[None, t:t + c],
+                                      initial_warmstart=warm[None])
+      st, sd = st[0], sd[0]
+      con = sd[:, columns]  # (c, E, 7): found, force (n, t1, t2), velocity (n, t1, t2)
+      fn = con[..., 1]
+      ft = np.hypot(con[..., 2], con[..., 3])
+      v = con[..., 5:7]
+      speed = np.hypot(v[..., 0], v[..., 1])
+      loaded = (con[..., 0] > 0) & (fn > LOADED)
+      limit = SLIDING * static * fn
+      j, keep = 0, c
+      while j < c:  # one pass per change of state, each over the chunk's remaining steps
+        prev = np.concatenate([velocity[None], v[j:-1]])  # a sliding element's last step
+        breaks = stuck & loaded[j:] & (ft[j:] >= limit[j:])
+        halts = ~stuck & loaded[j:] & ((speed[j:] < STICK_SPEED)
+                                       | ((v[j:] * prev).sum(axis=-1) < 0))
+        lifts = ~stuck & ~loaded[j:]
+        change = (breaks | halts | lifts).any(axis=1)
+        end = j + int(np.argmax(change)) if change.any() else c
+        rows = slice(j, end)
+        n_loaded = loaded[rows].sum(axis=1)
+        slip[t + j:t + end] = np.where(
+            n_loaded > 0, (loaded[rows] & ~stuck).sum(axis=1) / np.maximum(n_loaded, 1), 0.0)
+        last = _last_loaded(loaded[j:end + 1] if end < c else loaded[rows])
+        if last is not None:
+          has, idx = last
+          velocity[has] = v[j + idx[has], has]
+        if end == c:
+          break
+        k = end - j
+        was = stuck.copy()
+        stuck[breaks[k]] = False
+        stuck[halts[k]] = True
+        slip[t + end] = (np.count_nonzero(loaded[end] & ~stuck) / loaded[end].sum()
+                         if loaded[end].any() else 0.0)
+        stuck |= ~loaded[end]
+        j = end + 1
+        if np.any((stuck != was) & (static != self.kinetic)):
+          keep = j  # its coefficient changes from the next step: roll again from there
+          break
+      times[t:t + keep] = st[:keep, 0]
+      qpos[t:t + keep] = st[:keep, 1:1 + model.nq]
+      act[t:t + keep] = st[:keep, a:a + model.na]
+      sens[t:t + keep] = sd[:keep]
+      if keep == c:  # the solver's warm start: the rollout's own where it ran to its end;
+        warm = data.qacc_warmstart.copy()  # else the last step's velocity change over dt,
+        chunk = min(2 * chunk, CHUNK[1])  # which is that step's qacc under `discrete`
+      else:
+        before = st[keep - 2] if keep > 1 else state
+        warm = (st[keep - 1, 1 + model.nq:a] - before[1 + model.nq:a]) / model.opt.timestep
+        chunk = CHUNK[0]
+      state = st[keep - 1]
+      t += keep
+      if any(data.warning[w].number for w in physics.DIVERGED):
+        times[t:], qpos[t:], act[t:], sens[t:] = times[t - 1], qpos[t - 1], act[t - 1], \
+            sens[t - 1]  # as a diverged rollout fills its rest; `physics.check` reports it
+        break
+    return times, qpos, act, sens, slip
+
+
+# steps per rollout chunk of `StickSlip.roll`, from just after a change of coefficient to its
+# longest: short chunks waste little where elements change often, long ones save calls
+CHUNK = (8, 256)
+
+
+def _last_loaded(loaded: np.ndarray):
+  """For (rows, E) flags, which elements are loaded in some row and the last such row."""
+  if not len(loaded):
+    return None
+  has = loaded.any(axis=0)
+  idx = len(loaded) - 1 - np.argmax(loaded[::-1], axis=0)
+  return has, idx
 
 
 # an element whose shear is within this share of its friction limit is taken as sliding:
@@ -375,8 +438,8 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     couples = layer.couple_kernel(scene.params, scene.kernel)
     gc = couples.reshape(len(couples), -1).T
 
-  element_of = np.full(model.ngeom, -1)
-  element_of[tips] = np.arange(len(tips))
+  contacts = np.array([model.sensor_adr[model.sensor(f"contact{e}").id]
+                       for e in range(len(tips))]) if stick_slip else None
 
   def work(i: int):
     slot = free.pop()
@@ -386,14 +449,14 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
           np.full(len(tips), scene.params.friction)
       if own:
         m.geom_friction[tips, 0] = kinetic
-      stick = StickSlip(np.array(tips), element_of, kinetic,
+      stick = StickSlip(np.array(tips), contacts, kinetic,
                         scene.params.static_friction_ratio) if stick_slip else None
-      qpos, sens, state_slip, physics_s = _run_episode(m, datas[slot], eps[i], stick)
+      qpos, act, sens, state_slip, physics_s = _run_episode(m, datas[slot], eps[i], stick)
       mu = model_lib.contact_friction(m)
     finally:
       free.append(slot)
     t = time.perf_counter()
-    forces, deflection = model_lib.element_state(model, scene.params, qpos)
+    forces, deflection = model_lib.element_state(model, scene.params, qpos, act)
     pressure = forces.reshape(len(forces), -1) @ g
     if gc is not None:
       pressure += element_couples(forces, deflection).reshape(len(forces), -1) @ gc
@@ -442,9 +505,10 @@ def versions() -> dict[str, str]:
   # are not reused: 2 = element rates from the bonded finite-element block; 3 = viscoelastic
   # in shear too; 4 = the slip share of each sample, FootpadParams' friction law; 5 = every
   # recording its own noise and drift streams (`stream_of`); 6 = a custom path's phase 1 is
-  # the path at its depth (not its press down); 7 = the square path once (not three times).
+  # the path at its depth (not its press down); 7 = the square path once (not three times);
+  # 8 = the Maxwell arms as activation states (`model_lib.maxwell_arm`), not bodies.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "7"}
+          "physics": "8"}
 
 
 def cache_key(scene: FootpadScene) -> dict:
