@@ -135,3 +135,23 @@ def test_bonded_plate_rates_soften_edges_and_set_the_press():
   _press(model, data, 0.001)
   indentation = -data.qpos[model_lib.cnc_qpos_index(model)[2]]
   assert data.sensordata[2] == pytest.approx(k[:, 2].sum() * indentation, rel=0.05)
+
+
+def test_plate_wrench_is_what_mujocos_force_torque_sensor_reads():
+  """The plate's wrench from its net contact force (`plate_wrench`) equals MuJoCo's own
+  force and torque sensors at the F/T site, pressed and dragged off centre."""
+  spec = model_lib.build_spec(P, viscoelastic=True, stiffness=layer.element_stiffness(P))
+  for kind in (mujoco.mjtSensor.mjSENS_FORCE, mujoco.mjtSensor.mjSENS_TORQUE):
+    spec.add_sensor(type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="ft")
+  model = spec.compile()
+  data = mujoco.MjData(model)
+  n = model_lib.PLATE_SENSOR
+  worst, peak = 0.0, np.zeros(6)
+  for i in range(600):
+    data.ctrl[:] = [0.003 * np.sin(i / 90), 0.002 * np.cos(i / 60), -0.0012]
+    mujoco.mj_step(model, data)
+    ours, theirs = model_lib.plate_wrench(data.sensordata), data.sensordata[n:n + 6]
+    worst = max(worst, np.abs(ours - theirs).max())
+    peak = np.maximum(peak, np.abs(theirs))
+  assert peak[2] > 100 and peak[0] > 10 and peak[3] > 0.05  # a real press, drag and couple
+  assert worst < 1e-9 * peak[2]

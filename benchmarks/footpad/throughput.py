@@ -1,5 +1,5 @@
-"""footpad_throughput: scene steps/s against bare mj_step, and the sensor chain's share;
-then, each as a ratio measured in this one run (the machine's load printed with it): the
+"""footpad_throughput: scene steps/s, the sensor chain's share, and the scene against bare
+mj_step on the same model and commands (its deepest episode, in contact, one thread); then, each as a ratio measured in this one run (the machine's load printed with it): the
 viscoelastic model's step cost against the friction-only model's, one LM epoch against the
 structured Gram floor it needs (u blocks, N x 81, `u.T @ u` in OpenBLAS), and network
 trainings two at a time (`calibrate.parallel`) against one at a time.
@@ -25,20 +25,20 @@ def run(ctx) -> dict:
   scene = dataclasses.replace(scene, paths=("asterisk",))
   layer.die_kernel(scene.params, scene.kernel)  # solve (or load) the kernel outside the timing
   rec, t = scene_lib.simulate(scene, ctx.progress("episodes"))
-  bare = scene_lib.bare_step_rate(scene)
   scene_rate = t.steps / t.simulate
   res = {"steps": t.steps, "threads": t.threads, "scene_steps_per_s": scene_rate,
          "scene_steps_per_s_per_thread": scene_rate / t.threads,
-         "bare_mj_step_per_s": bare,
-         "scene_vs_bare_per_thread": scene_rate / t.threads / bare,
          "physics_thread_s": t.physics_cpu, "sensor_chain_thread_s": t.sensor_chain_cpu,
          "simulate_wall_s": t.simulate, "sensor_chain_share": t.sensor_chain_cpu / t.physics_cpu}
   ctx.print(f"scene: {t.steps} steps in {t.simulate:.2f} s on {t.threads} threads = "
             f"{scene_rate:,.0f} steps/s ({scene_rate / t.threads:,.0f} per thread)")
-  ctx.print(f"bare mj_step, sensors off, 1 thread: {bare:,.0f} steps/s; scene per thread / bare "
-            f"= {res['scene_vs_bare_per_thread']:.2f}")
   ctx.print(f"sensor chain: {t.sensor_chain_cpu:.3f} thread-s = "
             f"{res['sensor_chain_share']:.1%} of the physics' {t.physics_cpu:.2f} thread-s")
+  in_scene, bare = scene_lib.step_rates(scene)
+  res.update(scene_in_contact_per_s=in_scene, bare_mj_step_per_s=bare,
+             scene_vs_bare=in_scene / bare)
+  ctx.print(f"deepest episode, 1 thread: scene {in_scene:,.0f} steps/s, bare mj_step on the "
+            f"same model and commands (sensors off) {bare:,.0f}: scene/bare {in_scene / bare:.2f}")
   res.update(_viscoelastic_cost(ctx, scene, bare))
   res.update(_epoch_against_gram(ctx, rec))
   res.update(_parallel_training(ctx, rec))
@@ -56,7 +56,7 @@ def _viscoelastic_cost(ctx, scene, bare: float) -> dict:
     return {}
   plain = dataclasses.replace(scene, effects=tuple(e for e in scene.effects
                                                    if e != fx.VISCOELASTIC.name))
-  rate = scene_lib.bare_step_rate(plain)
+  rate = scene_lib.step_rates(plain)[1]
   ctx.print(f"bare mj_step in contact: viscoelastic model {bare:,.0f} steps/s, without its "
             f"arms {rate:,.0f}: step cost ratio {rate / bare:.2f}")
   return {"bare_mj_step_per_s_no_viscoelastic": rate, "viscoelastic_step_cost_ratio":

@@ -219,8 +219,8 @@ REACH_FLOOR = 25e-6
 def _run_episode(model: mujoco.MjModel, data: mujoco.MjData, ep: trajectories.Episode,
                  stick: Optional["StickSlip"] = None):
   """Rolls one episode out from rest; returns (qpos (T, nq), act (T, na), sensordata (T, ns),
-  slip (T,) or None, seconds). With `stick` the episode steps in Python, the tips' friction following each
-  element's stick-slip state, and slip is the share of loaded elements sliding.
+  slip (T,) or None, seconds). With `stick` the tips' friction follows each element's
+  stick-slip state (`StickSlip.roll`), and slip is the share of loaded elements sliding.
 
   Raises SimulationError if the physics diverged or the CNC did not reach its commands."""
   t0 = time.perf_counter()
@@ -269,20 +269,47 @@ class StickSlip:
 
   Attributes:
     tips: (E,) the tips' geom ids; their friction changes as elements stick and slide.
-    contacts: (E,) sensordata addresses of the tips' contact sensors (found, force and
-      relative velocity in the contact frame: `model_lib.build_spec(contact_sensors=True)`).
+    contacts: sensordata address of the plate's contacts (`model_lib.build_spec`'s
+      contact_sensors: E slots of found, force and relative velocity in the contact frame
+      and position).
+    cells: (2, 2) the element grid on the carriage: its corner and cell size (x, y), m; a
+      contact belongs to the tip whose cell it lies in (a tip moves well under half a cell).
+    grid: elements along x and y (tips numbered row-major in x, y).
     kinetic: (E,) each element's kinetic coefficient.
     ratio: static over kinetic coefficient.
   """
   tips: np.ndarray
-  contacts: np.ndarray
+  contacts: int
+  cells: np.ndarray
+  grid: tuple[int, int]
   kinetic: np.ndarray
   ratio: float
 
+  @classmethod
+  def of(cls, model: mujoco.MjModel, params: model_lib.FootpadParams, kinetic: np.ndarray
+         ) -> "StickSlip":
+    return cls(np.array([model.geom(f"tip{e}").id for e in range(params.num_elements)]),
+               int(model.sensor_adr[model.sensor("tip_contacts").id]),
+               np.array([-np.array(params.footprint) / 2, params.element_size]),
+               params.grid, kinetic, params.static_friction_ratio)
+
+  def per_element(self, sensordata: np.ndarray, cnc: np.ndarray) -> np.ndarray:
+    """(c, E, 7) found, force and velocity of each tip's contact from (c, ns) sensordata,
+    with the carriage at (c, 2) cnc positions (before each step); zero where none."""
+    c, nt = len(sensordata), len(self.tips)
+    slots = sensordata[:, self.contacts:self.contacts + 10 * nt].reshape(c, nt, 10)
+    row, slot = np.nonzero(slots[..., 0] > 0)
+    found = slots[row, slot]
+    cell = np.floor((found[:, 4:6] - cnc[row] - self.cells[0]) / self.cells[1]).astype(int)
+    cell = np.clip(cell, 0, np.array(self.grid) - 1)
+    out = np.zeros((c, nt, 7))
+    out[row, cell[:, 0] * self.grid[1] + cell[:, 1]] = found[:, [0, 1, 2, 3, 7, 8, 9]]
+    return out
+
   def roll(self, model: mujoco.MjModel, data: mujoco.MjData, target: np.ndarray):
     """Steps `target` (T, 3) CNC commands from data's state; returns times (T,), qpos (T, nq),
-    act (T, na), sensordata (T, ns) after each step (as `mujoco.rollout` records them) and
-    the share of loaded elements sliding (T,).
+    act (T, na), the plate sensor's sensordata (T, model_lib.PLATE_SENSOR) after each step
+    (as `mujoco.rollout` records them) and the share of loaded elements sliding (T,).
 
     The steps run in chunks through `mujoco.rollout` with the friction coefficients fixed.
     The state machine then reads the chunk's contact sensors: up to the first step at which
@@ -295,21 +322,22 @@ class StickSlip:
     mujoco.mj_getState(model, data, state, spec)
     warm = data.qacc_warmstart.copy()
     times, slip = np.empty(n), np.zeros(n)
-    qpos, sens = np.empty((n, model.nq)), np.empty((n, model.nsensordata))
+    qpos, sens = np.empty((n, model.nq)), np.empty((n, model_lib.PLATE_SENSOR))
     act = np.empty((n, model.na))
     a = 1 + model.nq + model.nv
     stuck = np.ones(nt, bool)
     velocity = np.zeros((nt, 2))
     static = self.ratio * self.kinetic
     t, chunk = 0, CHUNK[0]
-    columns = self.contacts[:, None] + np.arange(7)
+    cnc = model_lib.cnc_qpos_index(model)[:2] + 1  # in the state, after its time
     while t < n:
       c = min(chunk, n - t)
       model.geom_friction[self.tips, 0] = np.where(stuck, static, self.kinetic)
       st, sd = mujoco.rollout.rollout(model, data, state, target[None, t:t + c],
                                       initial_warmstart=warm[None])
       st, sd = st[0], sd[0]
-      con = sd[:, columns]  # (c, E, 7): found, force (n, t1, t2), velocity (n, t1, t2)
+      before = np.concatenate([state[None, cnc], st[:-1, cnc]])
+      con = self.per_element(sd, before)  # found, force (n, t1, t2), velocity (n, t1, t2)
       fn = con[..., 1]
       ft = np.hypot(con[..., 2], con[..., 3])
       v = con[..., 5:7]
@@ -349,7 +377,7 @@ class StickSlip:
       times[t:t + keep] = st[:keep, 0]
       qpos[t:t + keep] = st[:keep, 1:1 + model.nq]
       act[t:t + keep] = st[:keep, a:a + model.na]
-      sens[t:t + keep] = sd[:keep]
+      sens[t:t + keep] = sd[:keep, :model_lib.PLATE_SENSOR]
       if keep == c:  # the solver's warm start: the rollout's own where it ran to its end;
         warm = data.qacc_warmstart.copy()  # else the last step's velocity change over dt,
         chunk = min(2 * chunk, CHUNK[1])  # which is that step's qacc under `discrete`
@@ -403,6 +431,21 @@ def element_couples(forces: np.ndarray, deflection: np.ndarray) -> np.ndarray:
   return forces[..., 2:3] * deflection[..., :2] - forces[..., :2] * deflection[..., 2:3]
 
 
+def _set_friction(scene: FootpadScene, model: mujoco.MjModel,
+                  kinetic: Optional[np.ndarray]) -> Optional[StickSlip]:
+  """Gives an episode's own model (the plate's coefficient zeroed: MuJoCo takes the larger)
+  its tips' kinetic coefficients, `kinetic` (E,) under `pressure_friction` or the pad's
+  friction otherwise; returns the `stick_slip` state machine when the scene has it."""
+  on = active(scene.effects, EFFECTS)
+  if fx.PRESSURE_FRICTION not in on and fx.STICK_SLIP not in on:
+    return None
+  if kinetic is None:
+    kinetic = np.full(scene.params.num_elements, scene.params.friction)
+  tips = [model.geom(f"tip{e}").id for e in range(scene.params.num_elements)]
+  model.geom_friction[tips, 0] = kinetic
+  return StickSlip.of(model, scene.params, kinetic) if fx.STICK_SLIP in on else None
+
+
 def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
              threads: Optional[int] = None) -> tuple[recording.Recording, recording.Timing]:
   """Runs the scene (no cache). `progress(done, total)` is called as episodes finish."""
@@ -422,7 +465,6 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
   if own:
     for m in models:  # the tip's coefficient decides (MuJoCo takes the larger of the two)
       m.geom_friction[m.geom("plate").id, 0] = 0.0
-  tips = [model.geom(f"tip{e}").id for e in range(scene.params.num_elements)]
   # one set of coefficients per depth, before the threads start (not one per episode)
   friction = {z: episode_friction(scene, z) for z in {ep.z_level for ep in eps}} \
       if per_element else {}
@@ -438,19 +480,12 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     couples = layer.couple_kernel(scene.params, scene.kernel)
     gc = couples.reshape(len(couples), -1).T
 
-  contacts = np.array([model.sensor_adr[model.sensor(f"contact{e}").id]
-                       for e in range(len(tips))]) if stick_slip else None
 
   def work(i: int):
     slot = free.pop()
     m = models[slot]
     try:
-      kinetic = friction[eps[i].z_level] if per_element else \
-          np.full(len(tips), scene.params.friction)
-      if own:
-        m.geom_friction[tips, 0] = kinetic
-      stick = StickSlip(np.array(tips), contacts, kinetic,
-                        scene.params.static_friction_ratio) if stick_slip else None
+      stick = _set_friction(scene, m, friction.get(eps[i].z_level))
       qpos, act, sens, state_slip, physics_s = _run_episode(m, datas[slot], eps[i], stick)
       mu = model_lib.contact_friction(m)
     finally:
@@ -463,8 +498,8 @@ def simulate(scene: FootpadScene, progress: Optional[Progress] = None,
     slip = state_slip if state_slip is not None else \
         slip_share(forces, mu) if fx.FRICTION in on else np.zeros(len(forces))
     chain = time.perf_counter() - t
-    return i, (pressure, sens[:, :6], forces.sum(axis=1), qpos[:, cnc_idx], slip, physics_s,
-               chain)
+    return i, (pressure, model_lib.plate_wrench(sens), forces.sum(axis=1), qpos[:, cnc_idx],
+               slip, physics_s, chain)
 
   done = 0
   with concurrent.futures.ThreadPoolExecutor(threads) as pool:
@@ -541,18 +576,27 @@ def generate(scene: FootpadScene, progress: Optional[Progress] = None, use_cache
                             use_cache)
 
 
-def bare_step_rate(scene: FootpadScene, steps: int = 3000) -> float:
-  """Steps/s of plain `mj_step` on the scene's model with sensors disabled, one thread,
-  pressing at the deepest z level (the reference for `footpad_throughput`)."""
+def step_rates(scene: FootpadScene) -> tuple[float, float]:
+  """Steps/s, one thread, of the scene's deepest episode of its first path: as `simulate`
+  runs it (rollout, sensors, the stick-slip machine, the checks) and as bare `mj_step` on the
+  same model and commands with sensors disabled; the reference of `footpad_throughput`."""
   model = compile_model(scene)
-  model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SENSOR
+  model.geom_friction[model.geom("plate").id, 0] = 0.0
+  eps = episodes(dataclasses.replace(scene, paths=scene.paths[:1], custom_path=None),
+                 layer.die_kernel(scene.params, scene.kernel))
+  ep = max(eps, key=lambda e: e.z_level)
+  per_element = fx.PRESSURE_FRICTION in active(scene.effects, EFFECTS)
+  stick = _set_friction(scene, model, episode_friction(scene, ep.z_level) if per_element
+                        else None)
   data = mujoco.MjData(model)
-  z = max(scene.z_levels) if scene.z_levels else 0.001
-  data.ctrl[:] = [0.0, 0.0, -z]
-  for _ in range(200):
-    mujoco.mj_step(model, data)
+  scene_s = _run_episode(model, data, ep, stick)[-1]
+  model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SENSOR
+  mujoco.mj_resetData(model, data)
+  data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
+  mujoco.mj_forward(model, data)
   t = time.perf_counter()
-  for i in range(steps):
-    data.ctrl[0] = 0.003 * math.sin(2 * math.pi * i / steps)
+  for u in ep.target:
+    data.ctrl[:] = u
     mujoco.mj_step(model, data)
-  return steps / (time.perf_counter() - t)
+  bare_s = time.perf_counter() - t
+  return len(ep.target) / scene_s, len(ep.target) / bare_s
