@@ -70,8 +70,7 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
   parser.add_argument("--workers", type=int, default=None,
                       help="processes or Dask workers for a sweep (default: one per core); "
                            "for Table I's network trainings, how many train at once "
-                           "(default: one at a time, which keeps their reported times "
-                           "honest)")
+                           "(default: one per core; 1 gives each training's solo time)")
   parser.add_argument("--address", default=None,
                       help="join a running Dask scheduler (tls://HOST:PORT, or tcp:// on a "
                            "trusted network); TLS certificates come from Dask's configuration "

@@ -213,9 +213,11 @@ def _forward(theta, x, h, d, o):
   return _layers(w1, x)[2] @ w2.T
 
 
-# Samples per Gram block: a block of u stays in cache (measured at N = 368k: 267 ms per
-# J^T J in one piece, ~150 ms in blocks).
-_CHUNK = 16384
+# Samples per Gram block: a block's products stay in cache. Measured at N = 100k, one
+# thread: 4096 was the fastest of 1024-16384 (22-33 ms per set of normal equations against
+# 28-41 ms at 16384, the machine's load moving both), and two trainings side by side slowed
+# each other by 1.15x at 2048-4096 against 1.66x at 16384, whose blocks stream through memory.
+_CHUNK = 4096
 
 
 def normal_equations(theta, x, y, h: int):
@@ -241,21 +243,35 @@ def _normal_equations(theta, x, y, h: int):
   xc = jnp.pad(x, ((0, pad), (0, 0))).reshape(chunks, _CHUNK, d)
   yc = jnp.pad(y, ((0, pad), (0, 0))).reshape(chunks, _CHUNK, o)
 
+  ih, jh = np.triu_indices(h)  # the distinct products of two hidden units' slopes
+  ka, la = np.triu_indices(d + 1)  # and of two inputs
+  pair_h = np.zeros((h, h), int)
+  pair_h[ih, jh] = pair_h[jh, ih] = np.arange(len(ih))
+  pair_a = np.zeros((d + 1, d + 1), int)
+  pair_a[ka, la] = pair_a[la, ka] = np.arange(len(ka))
+
   def block(acc, inp):
     xb, yb, mb = inp
     a, hid, hh = _layers(w1, xb)
     e = (yb - hh @ w2.T) * mb[:, None]
     g = (1.0 - hid**2) * mb[:, None]
-    # the per-sample vector [(1 - h^2) (x) (x, 1), h, 1]: its Gram matrix holds every block
-    u = jnp.concatenate([(g[:, :, None] * a[:, None, :]).reshape(_CHUNK, nz),
-                         hh * mb[:, None]], axis=1)
-    gram, g1, g2, sse = acc
-    return (gram + u.T @ u, g1 + ((e @ s) * g).T @ a, g2 + e.T @ hh,
-            sse + jnp.sum(e**2, axis=0)), None
+    hm = hh * mb[:, None]
+    # The Gram matrix of the per-sample vector u = [(1 - h^2) (x) (x, 1), h, 1] holds every
+    # block of J^T J. Its (x) part is sum_n g_i g_j a_k a_l: one product of the distinct
+    # g_i g_j with the distinct a_k a_l (H(H+1)/2 by (D+1)(D+2)/2), half the work of u^T u.
+    gg, aa = g[:, ih] * g[:, jh], a[:, ka] * a[:, la]
+    ga = (g[:, :, None] * hm[:, None, :]).reshape(_CHUNK, h * (h + 1))
+    kron, cross, tail, g1, g2, sse = acc
+    return (kron + gg.T @ aa, cross + ga.T @ a, tail + hm.T @ hm,
+            g1 + ((e @ s) * g).T @ a, g2 + e.T @ hh, sse + jnp.sum(e**2, axis=0)), None
 
-  zero = (jnp.zeros((nz + h + 1, nz + h + 1), x.dtype), jnp.zeros((h, d + 1), x.dtype),
+  zero = (jnp.zeros((len(ih), len(ka)), x.dtype), jnp.zeros((h * (h + 1), d + 1), x.dtype),
+          jnp.zeros((h + 1, h + 1), x.dtype), jnp.zeros((h, d + 1), x.dtype),
           jnp.zeros((o, h + 1), x.dtype), jnp.zeros((o,), x.dtype))
-  (gram, g1, g2, sse), _ = jax.lax.scan(block, zero, (xc, yc, mask))
+  (kron, cross, tail, g1, g2, sse), _ = jax.lax.scan(block, zero, (xc, yc, mask))
+  top = kron[pair_h[:, None, :, None], pair_a[None, :, None, :]].reshape(nz, nz)
+  side = cross.reshape(h, h + 1, d + 1).transpose(0, 2, 1).reshape(nz, h + 1)
+  gram = jnp.block([[top, side], [side.T, tail]])
   ones = jnp.ones((d + 1,), x.dtype)
   b11 = gram[:nz, :nz] * jnp.kron(s.T @ s, jnp.outer(ones, ones))
   zh = gram[:nz, nz:]  # (H (D+1), H+1)

@@ -176,17 +176,21 @@ def _fit_networks(ctx, ls, nn_train, test, child: list[int], names: dict, est_di
 
 
 def _fit_all(ctx, nn_train, jobs: list, label: str) -> list:
-  """The network fits of `jobs`, one after another, or `--workers N` at a time when given
-  (`calibrate.parallel`: each identical to the serial fit, bit for bit). One at a time is
-  the default because Table I reports each network's training time, and on a 2-core machine
-  two trainings at once took 2.2x as long each (measured: NN-only at the quick protocol's
-  N = 28,803, 7.1 s alone, 15.6 s beside another; the LM epoch streams its N x 81 Gram
-  blocks through memory), so the batch gained nothing and the times would mislead."""
+  """The network fits of `jobs`, one per core at once (`--workers N` sets how many;
+  `--executor serial` one at a time), in spawned workers (`calibrate.parallel`: each
+  identical to the serial fit, bit for bit). Side by side each training takes longer than
+  alone (measured on 2 cores: NN-only at N = 30,279, 5.7 and 6.3 s beside each other against
+  3.5 and 3.6 s one at a time, wall 0.79-0.95 of serial); the table says how many ran at
+  once, and `--workers 1` gives solo times."""
   from calibrate import parallel
-  spec = ctx.executor
-  workers = spec.workers if spec.kind != "serial" and spec.workers else 1
+  workers = _training_workers(ctx)
   return parallel.fit_all({"x": nn_train.counts, "y": nn_train.wrench[:, :3]}, jobs, workers,
                           ctx.progress(label))
+
+
+def _training_workers(ctx) -> int:
+  spec = ctx.executor
+  return 1 if spec.kind == "serial" else spec.count()
 
 
 def _medians(per_seed: list, ls_pred, truth, ls_seconds: float) -> dict:
@@ -382,7 +386,8 @@ def _print_table(ctx, results, comparison, n_seeds, per_seed) -> None:
       cells = [f"{r[k]:7.2f}" + (f" [{p[i]:6.2f}]" if p else " " * 9)
                for i, k in enumerate(("rmse", "nrmse_pct", "r2_pct"))]
       ctx.print(f"{m if ax == 'Z' else '':6s} {ax:4s} " + " ".join(cells))
-  ctx.print(f"\n{'training':9s} {'seconds':>9s} {'compile s':>10s} {'iterations':>11s}   paper")
+  ctx.print(f"\n{'training':9s} {'seconds':>9s} {'compile s':>10s} {'iterations':>11s}   paper"
+            f"   (networks {_training_workers(ctx)} at a time; --workers 1 for solo times)")
   for m in METHODS:
     t = results[m]["train"]
     cited = f"{PAPER_MINUTES[m]} min" if m in PAPER_MINUTES else ""
