@@ -26,8 +26,10 @@ STICK_SLIP = Effect("stick_slip", Kind.MODEL,
     "declared with it), breaks away there and slides at the kinetic coefficient "
     "until it stops or turns over the plate, then sticks again (a Karnopp-style state "
     "per element, updated every step). A history effect: after a reversal every "
-    "element must build its shear past the static limit again. Needs `friction`; "
-    "costs a Python step loop in place of MuJoCo's rollout.",
+    "element must build its shear past the static limit again. Needs `friction`. The "
+    "steps run in chunks through MuJoCo's rollout, the state read from one contact "
+    "sensor over the tips; a chunk is rolled again from the step where a coefficient "
+    "changes (identical to stepping singly: `StickSlip.roll`).",
     reads=("params.static_friction_ratio",), needs=("friction",))
 VISCOELASTIC = Effect("viscoelastic", Kind.MODEL,
     "Stress relaxation of the polyurethane as a two-term Prony series per element and "
@@ -36,7 +38,9 @@ VISCOELASTIC = Effect("viscoelastic", Kind.MODEL,
     "response is nearly elastic), so the shear springs relax alike, and the bonded "
     "layer's normal stiffness, which its shear modulus sets, too. With one material, "
     "imposed displacement and stuck contact every die and the plate relax with one "
-    "kernel and the map stays linear: relaxation costs a calibration only with slip.",
+    "kernel and the map stays linear: relaxation costs a calibration only with slip. "
+    "Each Maxwell arm is an activation state of MuJoCo's (a passive DC motor with "
+    "inductance obeys the arm's equation: `models.footpad.maxwell_arm`), not a body.",
     reads=("params.prony",))
 P_DELTA = Effect("p_delta", Kind.STRESS,
     "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "

@@ -541,9 +541,10 @@ def versions() -> dict[str, str]:
   # in shear too; 4 = the slip share of each sample, FootpadParams' friction law; 5 = every
   # recording its own noise and drift streams (`stream_of`); 6 = a custom path's phase 1 is
   # the path at its depth (not its press down); 7 = the square path once (not three times);
-  # 8 = the Maxwell arms as activation states (`model_lib.maxwell_arm`), not bodies.
+  # 8 = the Maxwell arms as activation states (`model_lib.maxwell_arm`), not bodies; 9 = the
+  # plate's F/T as the net contact wrench (`model_lib.plate_wrench`), equal to 1e-9.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "8"}
+          "physics": "9"}
 
 
 def cache_key(scene: FootpadScene) -> dict:
