@@ -17,8 +17,9 @@ threads, for callers that want no processes.
 
 The training time of each network (`TrainResult.seconds`) is measured in its worker. Where
 the cores share their memory bandwidth, trainings at once do not add up: on this project's
-2-core CI machines two NN-only fits at N = 28,803 took 15.6 s each beside one another
-against 7.1 s alone (a batch of two: 17.1 s on two workers, 15.3 s on one).
+2-core machines two NN-only fits at N = 30,279 took 5.7 and 6.3 s beside one another against
+3.5 and 3.6 s one at a time (the batch's wall time 0.79-0.95 of serial; 2.2x each, and no
+gain, before the normal equations' blocks were sized to stay in cache).
 """
 
 from __future__ import annotations

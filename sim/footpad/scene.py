@@ -270,8 +270,8 @@ class StickSlip:
   Attributes:
     tips: (E,) the tips' geom ids; their friction changes as elements stick and slide.
     contacts: sensordata address of the plate's contacts (`model_lib.build_spec`'s
-      contact_sensors: E slots of found, force and relative velocity in the contact frame
-      and position).
+      contact_sensors: E slots of found, force in the contact frame, position, relative
+      velocity in the contact frame).
     cells: (2, 2) the element grid on the carriage: its corner and cell size (x, y), m; a
       contact belongs to the tip whose cell it lies in (a tip moves well under half a cell).
     grid: elements along x and y (tips numbered row-major in x, y).
@@ -288,6 +288,7 @@ class StickSlip:
   @classmethod
   def of(cls, model: mujoco.MjModel, params: model_lib.FootpadParams, kinetic: np.ndarray
          ) -> "StickSlip":
+    """The machine for a model built with contact sensors, its tips at `kinetic` (E,)."""
     return cls(np.array([model.geom(f"tip{e}").id for e in range(params.num_elements)]),
                int(model.sensor_adr[model.sensor("tip_contacts").id]),
                np.array([-np.array(params.footprint) / 2, params.element_size]),
