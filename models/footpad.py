@@ -296,18 +296,11 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   # The plate's F/T sensor: the tips' contacts are all that load the plate, so their net
   # wrench is what a force and torque sensor at the site reads (equal to 1e-17 of the force,
   # measured), without the post-constraint dynamics of MuJoCo's force sensors (4 % of a step).
-  fields = mujoco.mjtConDataField
-  ft = spec.add_sensor(name="ft", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                       objtype=mujoco.mjtObj.mjOBJ_GEOM, objname="plate")
-  ft.intprm[:3] = [sum(1 << int(f) for f in (fields.mjCONDATA_FORCE, fields.mjCONDATA_TORQUE,
-                                             fields.mjCONDATA_POS)),
-                   3, 1]  # reduce="netforce" (no enum in the bindings): one synthetic contact
+  # reduce="netforce" (3; no enum in the bindings): one synthetic contact
+  _plate_contacts(spec, "ft", ("FORCE", "TORQUE", "POS"), reduce=3, slots=1)
   if contact_sensors:  # one sensor for every tip: 48 of their own cost 8 % of a step
-    data = sum(1 << int(f) for f in (fields.mjCONDATA_FOUND, fields.mjCONDATA_FORCE,
-                                     fields.mjCONDATA_POS, fields.mjCONDATA_LINVEL))
-    sensor = spec.add_sensor(name="tip_contacts", type=mujoco.mjtSensor.mjSENS_CONTACT,
-                             objtype=mujoco.mjtObj.mjOBJ_GEOM, objname="plate")
-    sensor.intprm[:3] = [data, 0, params.num_elements]  # those fields, unsorted, all tips
+    _plate_contacts(spec, "tip_contacts", ("FOUND", "FORCE", "POS", "LINVEL"), reduce=0,
+                    slots=params.num_elements)
   lighting.light(spec, 0.2)
   return spec
 
@@ -328,6 +321,16 @@ def maxwell_arm(spec: mujoco.MjSpec, joint: str, stiffness: float, tau: float,
   act = spec.add_actuator(name=name, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
   act.set_to_dcmotor(motorconst=[1.0, 1.0], resistance=inductance / tau,
                      inductance=[inductance, 0.0], ctrlspec=mujoco.mjtCtrlInput.mjINPUT_NONE)
+
+
+def _plate_contacts(spec: mujoco.MjSpec, name: str, data: tuple[str, ...], reduce: int,
+                    slots: int) -> None:
+  """A contact sensor over the plate's contacts reporting the `mjtConDataField` fields
+  `data` (names without their mjCONDATA_ prefix) in `slots` slots, reduced by `reduce`."""
+  bits = sum(1 << int(getattr(mujoco.mjtConDataField, f"mjCONDATA_{f}")) for f in data)
+  sensor = spec.add_sensor(name=name, type=mujoco.mjtSensor.mjSENS_CONTACT,
+                           objtype=mujoco.mjtObj.mjOBJ_GEOM, objname="plate")
+  sensor.intprm[:3] = [bits, reduce, slots]
 
 
 PLATE_SENSOR = 9  # sensordata values of the plate's sensor, first in every footpad model

@@ -358,10 +358,10 @@ class StickSlip:
         n_loaded = loaded[rows].sum(axis=1)
         slip[t + j:t + end] = np.where(
             n_loaded > 0, (loaded[rows] & ~stuck).sum(axis=1) / np.maximum(n_loaded, 1), 0.0)
-        last = _last_loaded(loaded[j:end + 1] if end < c else loaded[rows])
-        if last is not None:
-          has, idx = last
-          velocity[has] = v[j + idx[has], has]
+        seen = loaded[j:end + 1]  # the rows this pass settles, a changing one included
+        has = seen.any(axis=0)
+        last = j + len(seen) - 1 - np.argmax(seen[::-1], axis=0)
+        velocity[has] = v[last[has], has]  # each element's speed when last loaded
         if end == c:
           break
         k = end - j
@@ -398,15 +398,6 @@ class StickSlip:
 # steps per rollout chunk of `StickSlip.roll`, from just after a change of coefficient to its
 # longest: short chunks waste little where elements change often, long ones save calls
 CHUNK = (8, 256)
-
-
-def _last_loaded(loaded: np.ndarray):
-  """For (rows, E) flags, which elements are loaded in some row and the last such row."""
-  if not len(loaded):
-    return None
-  has = loaded.any(axis=0)
-  idx = len(loaded) - 1 - np.argmax(loaded[::-1], axis=0)
-  return has, idx
 
 
 # an element whose shear is within this share of its friction limit is taken as sliding:
