@@ -1,5 +1,6 @@
 """footpad_throughput: scene steps/s, the sensor chain's share, and the scene against bare
-mj_step on the same model and commands (its deepest episode, in contact, one thread); then, each as a ratio measured in this one run (the machine's load printed with it): the
+mj_step on the same model and commands (its deepest episode, in contact, one thread); then,
+each as a ratio measured in this one run (the machine's load printed with it): the
 viscoelastic model's step cost against the friction-only model's, one LM epoch against the
 structured Gram floor it needs (u blocks, N x 81, `u.T @ u` in OpenBLAS), and network
 trainings two at a time (`calibrate.parallel`) against one at a time.
@@ -56,7 +57,7 @@ def _viscoelastic_cost(ctx, scene, bare: float) -> dict:
     return {}
   plain = dataclasses.replace(scene, effects=tuple(e for e in scene.effects
                                                    if e != fx.VISCOELASTIC.name))
-  rate = scene_lib.step_rates(plain)[1]
+  rate = scene_lib.step_rates(plain, bare_only=True)[1]
   ctx.print(f"bare mj_step in contact: viscoelastic model {bare:,.0f} steps/s, without its "
             f"arms {rate:,.0f}: step cost ratio {rate / bare:.2f}")
   return {"bare_mj_step_per_s_no_viscoelastic": rate, "viscoelastic_step_cost_ratio":

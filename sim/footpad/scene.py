@@ -569,10 +569,12 @@ def generate(scene: FootpadScene, progress: Optional[Progress] = None, use_cache
                             use_cache)
 
 
-def step_rates(scene: FootpadScene) -> tuple[float, float]:
+def step_rates(scene: FootpadScene, bare_only: bool = False
+               ) -> tuple[Optional[float], float]:
   """Steps/s, one thread, of the scene's deepest episode of its first path: as `simulate`
-  runs it (rollout, sensors, the stick-slip machine, the checks) and as bare `mj_step` on the
-  same model and commands with sensors disabled; the reference of `footpad_throughput`."""
+  runs it (rollout, sensors, the stick-slip machine, the checks; None with `bare_only`) and
+  as bare `mj_step` on the same model and commands with sensors disabled; the reference of
+  `footpad_throughput`."""
   model = compile_model(scene)
   model.geom_friction[model.geom("plate").id, 0] = 0.0
   eps = episodes(dataclasses.replace(scene, paths=scene.paths[:1], custom_path=None),
@@ -582,7 +584,7 @@ def step_rates(scene: FootpadScene) -> tuple[float, float]:
   stick = _set_friction(scene, model, episode_friction(scene, ep.z_level) if per_element
                         else None)
   data = mujoco.MjData(model)
-  scene_s = _run_episode(model, data, ep, stick)[-1]
+  in_scene = None if bare_only else len(ep.target) / _run_episode(model, data, ep, stick)[-1]
   model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SENSOR
   mujoco.mj_resetData(model, data)
   data.qpos[model_lib.cnc_qpos_index(model)] = ep.target[0]
@@ -591,5 +593,4 @@ def step_rates(scene: FootpadScene) -> tuple[float, float]:
   for u in ep.target:
     data.ctrl[:] = u
     mujoco.mj_step(model, data)
-  bare_s = time.perf_counter() - t
-  return len(ep.target) / scene_s, len(ep.target) / bare_s
+  return in_scene, len(ep.target) / (time.perf_counter() - t)
