@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import pathlib
+import threading
 from typing import Literal
 
 import mujoco
@@ -24,7 +26,7 @@ import numpy as np
 
 from models import lighting
 
-from util import fields
+from util import errors, fields, native
 from util.fields import Sourced, setting
 
 # Element joints are ordered x, y, z per element, elements row-major in (ix, iy).
@@ -193,7 +195,7 @@ class FootpadParams:
 
 def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool = False,
                stiffness: np.ndarray | None = None,
-               contact_sensors: bool = False) -> mujoco.MjSpec:
+               contact_sensors: bool = False, arms: str | None = None) -> mujoco.MjSpec:
   """Builds the rig as an MjSpec.
 
   Args:
@@ -205,9 +207,11 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
     stiffness: (num_elements, 3) element spring rates, N/m; None for free rubber columns
       (`FootpadParams.element_stiffness`); see `sim.footpad.layer.element_stiffness`.
     contact_sensors: a contact sensor "tip_contacts" after the plate's force and torque,
-      reporting every contact of the plate (found, force in the contact frame, position,
-      relative velocity in the contact frame: 10 values per slot, one slot per tip): what
-      the `stick_slip` effect's state machine reads from a rollout.
+      reporting every contact of the plate (found, force in the contact frame, position: 7
+      values per slot, one slot per tip): what the `stick_slip` effect's state machine
+      reads from a rollout.
+    arms: how the Maxwell arms are integrated (`maxwell_arm`): "native" or "dcmotor"; None
+      takes `arm_dynamics()`, the native callback wherever it could be compiled.
   Returns:
     The spec; compile with `spec.compile()`.
   """
@@ -275,6 +279,11 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   centres = params.element_centres()
   sag = params.crown_sag()
   g1, tau1, g2, tau2 = params.prony
+  kind = (arms or arm_dynamics()[0]) if viscoelastic else None
+  if kind == "native" and arm_dynamics()[0] != "native":
+    raise errors.SettingError(f"arms='native': the callback is unavailable ({arm_dynamics()[1]})")
+  if kind not in (None, "native", "dcmotor"):
+    raise errors.SettingError(f"arms is {arms!r}: expected 'native', 'dcmotor' or None")
   arms = ((g1, tau1), (g2, tau2)) if viscoelastic else ()
   relaxed = 1.0 - sum(g for g, _ in arms)
   for e in range(params.num_elements):
@@ -287,7 +296,7 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
                    stiffness=k[e, i] * relaxed,
                    damping=2 * params.damping_ratio * math.sqrt(k[e, i] * mass))
       for arm, (g, tau) in enumerate(arms):
-        maxwell_arm(spec, f"el{e}_{axis}", g * k[e, i], tau, f"el{e}_{axis}_arm{arm}")
+        maxwell_arm(spec, f"el{e}_{axis}", g * k[e, i], tau, f"el{e}_{axis}_arm{arm}", kind)
     el.add_geom(name=f"tip{e}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], mass=mass,
                 # Tips collide with the plate only, never with each other.
                 contype=1, conaffinity=0, condim=condim, friction=[params.friction, 0.005, 1e-4], solref=contact_solref,
@@ -299,28 +308,88 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   # reduce="netforce" (3; no enum in the bindings): one synthetic contact
   _plate_contacts(spec, "ft", ("FORCE", "TORQUE", "POS"), reduce=3, slots=1)
   if contact_sensors:  # one sensor for every tip: 48 of their own cost 8 % of a step
-    _plate_contacts(spec, "tip_contacts", ("FOUND", "FORCE", "POS", "LINVEL"), reduce=0,
+    _plate_contacts(spec, "tip_contacts", ("FOUND", "FORCE", "POS"), reduce=0,
                     slots=params.num_elements)
   lighting.light(spec, 0.2)
   return spec
 
 
 def maxwell_arm(spec: mujoco.MjSpec, joint: str, stiffness: float, tau: float,
-                name: str) -> None:
+                name: str, kind: str = "dcmotor") -> None:
   """Adds a Maxwell arm (a spring of `stiffness` N/m in series with a dashpot of time constant
-  `tau` s, between the carriage and `joint`) as a passive DC motor with inductance.
+  `tau` s, between the carriage and `joint`) as an actuator whose activation is the arm's
+  force on the joint, N (`element_state` reads it): one state, and no body, joint or
+  constraint (three bodies' worth of degrees of freedom per element before).
 
   The arm's spring stretch y obeys y' = -y/tau - v (v the joint's speed) and pushes the joint
-  with k y. A motor with no voltage input obeys L i' = -R i - K v and pushes with K i: the
-  same equation for i = (k / K) y when L = K^2 / k and R = L / tau. MuJoCo integrates the
-  current as an activation state, so the arm costs one state and no body, joint or
-  constraint (three bodies' worth of degrees of freedom per element before). With K = 1
-  the activation is the arm's force on the joint, N (`element_state` reads it).
+  with k y, so its force f = k y obeys f' = -f/tau - k v. Two integrations of that equation:
+
+  - "native": the same motor with user activation dynamics (`maxwell_arm.c`, compiled once
+    per machine, see `arm_dynamics`) that step its equation explicitly like any
+    activation: stable while dt < 2 tau (tau
+    >= 0.01 s by its setting's range, dt <= 2 ms), within the Prony test's 3 %, and
+    1.2x the friction-only step cost against 1.65x for the motor (measured,
+    `footpad_throughput`).
+  - "dcmotor": MuJoCo's passive DC motor with inductance, L i' = -R i - K v pushing with K i:
+    the same equation for i = f / K when L = K^2 / k and R = L / tau. It needs no compiler,
+    but the `discrete` integrator couples each motor implicitly, which costs the rest.
   """
   inductance = 1.0 / stiffness  # K^2 / k with K = 1 V s/m
   act = spec.add_actuator(name=name, target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
   act.set_to_dcmotor(motorconst=[1.0, 1.0], resistance=inductance / tau,
                      inductance=[inductance, 0.0], ctrlspec=mujoco.mjtCtrlInput.mjINPUT_NONE)
+  if kind == "native":  # the motor's parameters and gain (K i) stay; its dynamics go
+    act.dyntype = mujoco.mjtDyn.mjDYN_USER
+    act.dynprm[_ARM_MARK_INDEX] = _ARM_MARK
+    act.actearly = False  # early activations would bring back the implicit coupling's cost
+
+
+# dynprm[9] of a native arm, MAXWELL_ARM_MARK in maxwell_arm.c: free, where a value in slot 2,
+# 5 or 7 fails the motor's checks (as found in MuJoCo 4.0)
+_ARM_MARK, _ARM_MARK_INDEX = 6174.0, 9
+_arm_lock = threading.Lock()
+_arm_state: tuple[str, str] | None = None
+
+
+def arm_dynamics() -> tuple[str, str]:
+  """("native", "") once the arms' activation callback is compiled and installed as MuJoCo's
+  `mjcb_act_dyn` in this process; else ("dcmotor", why not): no C compiler (an empty $CC
+  says so on purpose), no MuJoCo headers, or another `mjcb_act_dyn` already installed."""
+  global _arm_state
+  with _arm_lock:
+    if _arm_state is None:
+      include = pathlib.Path(mujoco.__file__).parent / "include"
+      lib, why = native.shared_library(pathlib.Path(__file__).with_name("maxwell_arm.c"),
+                                       (str(include),), tag=mujoco.__version__)
+      current = mujoco.get_mjcb_act_dyn()
+      if lib is not None and current is not None and current is not lib.maxwell_arm_act_dyn:
+        lib, why = None, "another mjcb_act_dyn callback is installed"
+      if lib is None:
+        _arm_state = ("dcmotor", why)
+      else:
+        mujoco.set_mjcb_act_dyn(lib.maxwell_arm_act_dyn)
+        _arm_state = ("native", "")
+    return _arm_state
+
+
+def require_arm_dynamics(model: mujoco.MjModel) -> None:
+  """Raises unless every native arm of `model` will be integrated: a model compiled in
+  another process (pickled to a worker) or before someone replaced `mjcb_act_dyn` would
+  otherwise step with arms that never relax."""
+  native_arms = ((model.actuator_dyntype == mujoco.mjtDyn.mjDYN_USER)
+                 & (model.actuator_dynprm[:, _ARM_MARK_INDEX] == _ARM_MARK))
+  if not native_arms.any():
+    return
+  kind, why = arm_dynamics()
+  if kind != "native":
+    raise errors.SimulationError(f"this footpad model has native Maxwell arms but their "
+                                 f"callback is unavailable here ({why}): build the model "
+                                 f"again with arms='dcmotor'")
+  installed = mujoco.get_mjcb_act_dyn()
+  if installed is None or getattr(installed, "__name__", "") != "maxwell_arm_act_dyn":
+    raise errors.SimulationError("mjcb_act_dyn was replaced after the footpad's native "
+                                 "Maxwell arms were installed: their activations would not "
+                                 "be integrated")
 
 
 def _plate_contacts(spec: mujoco.MjSpec, name: str, data: tuple[str, ...], reduce: int,

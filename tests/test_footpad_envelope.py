@@ -104,14 +104,18 @@ HISTORY = ("params.static_friction_ratio", "prony.g1", "prony.g2", "adc.hysteres
 @pytest.fixture(scope="module")
 def corners():
   """The quick protocol at the two corners of the sourced ranges: every history parameter at
-  its low end, then at its high end (the other parameters at their middles)."""
+  its low end, then at its high end (the other parameters at their middles); the networks'
+  metrics are medians over three seeds (at quick scale one seed is a lottery: at the corner
+  with the most history seed 1 alone gave NN-only Y 79.7 %, the median 53.4 %). The corners
+  run side by side, one per core."""
+  from benchmarks import executors
   from sim.footpad import scene as scene_lib
-  base = protocol.base(True, 0)
-  out = []
-  for level in (0.0, 1.0 - 1e-12):
-    u = np.array([level if name in HISTORY else 0.5 for name in envelope.ranges()])
-    out.append(envelope.evaluate({"base": scene_lib.FootpadScene.config(base),
-                                  "values": envelope.design_values(u), "seeds": [1]}))
+  base = scene_lib.FootpadScene.config(protocol.base(True, 0))
+  points = [{"base": base, "seeds": [1, 2, 3], "values": envelope.design_values(
+      np.array([level if name in HISTORY else 0.5 for name in envelope.ranges()]))}
+      for level in (0.0, 1.0 - 1e-12)]
+  out, failures = executors.sweep(envelope.evaluate, points, executors.ExecutorSpec(workers=2))
+  assert not failures, failures[0].error
   return out
 
 
@@ -119,8 +123,8 @@ def corners():
 def test_the_papers_shear_r2_lies_between_the_corners_of_the_sourced_ranges(corners):
   """The CI trend check of the envelope: the paper's shear and normal R2 of the networks
   (Table I) lie inside the span of the sourced ranges, above the corner with the most
-  history, below the one with none (measured: shear 99.83-99.97 % and -110-39 %; Z
-  99.98-99.99 % and 97.6-97.8 %, each recording drawing its own noise and drift)."""
+  history, below the one with none (measured: shear 99.87-99.98 % and -60-53 %; Z 99.99 %
+  and 97.7-98.2 %, each recording drawing its own noise and drift)."""
   from benchmarks.footpad import table
   least, most = corners
   for m in ("LSANN", "NN"):

@@ -1,5 +1,6 @@
 """The rig's mechanics against closed-form references."""
 
+import ctypes
 import dataclasses
 
 import mujoco
@@ -91,15 +92,22 @@ def test_element_stiffness_sums_to_EA_over_h():
   assert k[:, 0].sum() == pytest.approx(P.shear_modulus * area / P.thickness, rel=1e-12)
 
 
-@pytest.mark.slow  # ~7 s per axis: a long hold in MuJoCo
+def _arms(kind):
+  if kind == "native" and model_lib.arm_dynamics()[0] != "native":
+    pytest.skip(f"native Maxwell arms unavailable: {model_lib.arm_dynamics()[1]}")
+  return kind
+
+
+@pytest.mark.parametrize("arms", ["native", pytest.param("dcmotor", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("axis", [2, 0])
-def test_viscoelastic_relaxes_as_its_prony_series(axis):
+def test_viscoelastic_relaxes_as_its_prony_series(axis, arms):
   """Held at a fixed press (axis 2) or a press plus a sideways hold (axis 0), the plate force
   along that axis per unit of the elements' deflection follows the Prony series
-  k0 (1 - g1 - g2 + g1 exp(-t/tau1) + g2 exp(-t/tau2)) after the hold starts."""
+  k0 (1 - g1 - g2 + g1 exp(-t/tau1) + g2 exp(-t/tau2)) after the hold starts, with either
+  integration of the Maxwell arms."""
   params = dataclasses.replace(P, prony=(0.15, 0.3, 0.1, 3.0))  # short, to test in seconds
   g1, tau1, g2, tau2 = params.prony
-  model = model_lib.build_spec(params, viscoelastic=True).compile()
+  model = model_lib.build_spec(params, viscoelastic=True, arms=_arms(arms)).compile()
   data = mujoco.MjData(model)
   data.ctrl[:] = [0, 0, -0.001]
   if axis == 0:
@@ -122,6 +130,59 @@ def test_viscoelastic_relaxes_as_its_prony_series(axis):
   late = t > 0.1
   np.testing.assert_allclose(np.array(rate)[late], series[late], rtol=0.03)
   assert rate[-1] < 0.8 * rate[100]  # it did relax
+
+
+def _press_and_drag(t):
+  """CNC command at t s: press 1 mm over 0.1 s, drag 4 mm in x over 0.4 s (it slides), hold."""
+  return [0.004 * min(max(t - 0.15, 0.0) / 0.4, 1.0), 0.0, -0.001 * min(t / 0.1, 1.0)]
+
+
+def test_native_arms_integrate_the_motors_equation():
+  """The compiled arms and MuJoCo's implicitly coupled DC motors are two integrations of one
+  equation: pressed, dragged into sliding and held over 1 s, the plate's force agrees to 1 %
+  of its largest value at every millisecond, and each stays within 3 % of the motors
+  stepped at a fifth of the time step (measured: 0.5 %; 2.0 and 1.5 %)."""
+  _arms("native")
+  k = layer.element_stiffness(P)
+  runs = {}
+  for arms, dt in (("native", 0.001), ("dcmotor", 0.001), ("dcmotor", 0.0002)):
+    # fast arms, the hard case for an explicit step
+    params = dataclasses.replace(P, prony=(0.15, 0.05, 0.1, 0.5), timestep=dt)
+    model = model_lib.build_spec(params, viscoelastic=True, stiffness=k, arms=arms).compile()
+    data = mujoco.MjData(model)
+    every = round(0.001 / dt)
+    force, arm_load = [], 0.0
+    for step in range(1000 * every):
+      data.ctrl[:] = _press_and_drag((step + 1) * dt)
+      mujoco.mj_step(model, data)
+      if step % every == every - 1:
+        force.append(data.sensordata[:3].copy())
+        arm_load = max(arm_load, np.abs(data.act).sum())
+    runs[arms, dt] = np.array(force)
+    assert arm_load > 10.0  # N: the arms carried load
+  native, motor, fine = runs["native", 0.001], runs["dcmotor", 0.001], runs["dcmotor", 0.0002]
+  scale = np.abs(fine).max()
+  assert np.abs(native - motor).max() < 0.01 * scale
+  assert np.abs(native - fine).max() < 0.03 * scale
+  assert np.abs(motor - fine).max() < 0.03 * scale
+
+
+def test_native_arms_refuse_to_step_without_their_callback():
+  """A model with native arms, stepped where their callback is not installed, would never
+  relax: the episode runner refuses it and names the fix."""
+  _arms("native")
+  from util import errors
+  model = model_lib.build_spec(P, viscoelastic=True, arms="native").compile()
+  installed = mujoco.get_mjcb_act_dyn()
+  try:
+    mujoco.set_mjcb_act_dyn(None)
+    with pytest.raises(errors.SimulationError, match="mjcb_act_dyn was replaced"):
+      model_lib.require_arm_dynamics(model)
+  finally:
+    mujoco.set_mjcb_act_dyn(installed)
+  model_lib.require_arm_dynamics(model)  # restored
+  model_lib.require_arm_dynamics(model_lib.build_spec(P, viscoelastic=True,
+                                                      arms="dcmotor").compile())
 
 
 def test_bonded_plate_rates_soften_edges_and_set_the_press():
@@ -155,3 +216,24 @@ def test_plate_wrench_is_what_mujocos_force_torque_sensor_reads():
     peak = np.maximum(peak, np.abs(theirs))
   assert peak[2] > 100 and peak[0] > 10 and peak[3] > 0.05  # a real press, drag and couple
   assert worst < 1e-9 * peak[2]
+
+
+def test_native_build_says_why_it_could_not(tmp_path, monkeypatch):
+  """Without a compiler, or with a source that does not compile, `shared_library` returns no
+  library and the reason (the arms then fall back to MuJoCo's motors); a good source loads."""
+  from util import native
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path / "cache"))
+  good, bad = tmp_path / "good.c", tmp_path / "bad.c"
+  good.write_text("double twice(double x) { return 2 * x; }\n")
+  bad.write_text("double twice(double x) { return 2 * ; }\n")
+  monkeypatch.setenv("CC", "")
+  assert native.shared_library(good) == (None, "no C compiler found (set CC, or install gcc)")
+  monkeypatch.delenv("CC")
+  if native.compiler() is None:
+    pytest.skip("no C compiler here")
+  lib, why = native.shared_library(bad)
+  assert lib is None and "could not compile bad.c" in why
+  lib, why = native.shared_library(good)
+  lib.twice.restype, lib.twice.argtypes = ctypes.c_double, [ctypes.c_double]
+  assert why == "" and lib.twice(1.5) == 3.0
+  assert [p.name.split("-")[0] for p in (tmp_path / "cache" / "native").iterdir()] == ["good"]

@@ -39,8 +39,9 @@ VISCOELASTIC = Effect("viscoelastic", Kind.MODEL,
     "layer's normal stiffness, which its shear modulus sets, too. With one material, "
     "imposed displacement and stuck contact every die and the plate relax with one "
     "kernel and the map stays linear: relaxation costs a calibration only with slip. "
-    "Each Maxwell arm is an activation state of MuJoCo's (a passive DC motor with "
-    "inductance obeys the arm's equation: `models.footpad.maxwell_arm`), not a body.",
+    "Each Maxwell arm is an activation state of MuJoCo's, not a body: a compiled "
+    "activation callback where a C compiler exists, else a passive DC motor with "
+    "inductance, which obeys the arm's equation (`models.footpad.maxwell_arm`).",
     reads=("params.prony",))
 P_DELTA = Effect("p_delta", Kind.STRESS,
     "Second-order (P-delta) statics of the deformed pad: the plate's forces act where the "
