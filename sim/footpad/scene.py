@@ -350,8 +350,8 @@ class StickSlip:
       st, sd = mujoco.rollout.rollout(model, data, state, target[None, t:t + c],
                                       initial_warmstart=warm[None])
       st, sd = st[0], sd[0]
-      before = np.concatenate([state[None], st[:-1]])
-      con = self.per_element(sd, before[:, cnc], before[:, 1 + model.nq:a])
+      before = np.concatenate([state[None, :a], st[:-1, :a]])  # time, qpos, qvel
+      con = self.per_element(sd, before[:, cnc], before[:, 1 + model.nq:])
       fn = con[..., 1]  # found, force (n, t1, t2), velocity (x, y)
       ft = np.hypot(con[..., 2], con[..., 3])
       v = con[..., 4:6]
