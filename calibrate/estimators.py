@@ -19,6 +19,7 @@ import numpy as np
 
 from calibrate import linear, mlp, splits
 from calibrate import poly as poly_lib
+from calibrate import temporal
 from util import errors, files
 
 
@@ -174,9 +175,19 @@ class Estimator:
   poly: Optional[poly_lib.PolyFit] = None  # POLY with cross terms, in place of `linear`
   parts: tuple["Estimator", ...] = ()  # AUTO: the candidates kept
   pick: tuple[int, ...] = ()  # AUTO: for each output, the part that gives it
+  # a temporal front end (`calibrate.temporal`): the stages above then read its features of
+  # the counts, and `info` describes the raw counts
+  memory: Optional[temporal.Memory] = None
 
   @property
   def n_inputs(self) -> int:
+    """C, the raw input channels."""
+    if self.memory is not None:
+      return self.memory.channels
+    return self._n_stage_inputs
+
+  @property
+  def _n_stage_inputs(self) -> int:
     one = self.members[0] if self.members else self.parts[0] if self.parts else self
     if one.parts:
       return one.n_inputs
@@ -192,16 +203,24 @@ class Estimator:
     f = self.linear.predict(counts)
     return f + self.net.predict(counts) if self.kind is Kind.LSANN else f
 
-  def predict(self, counts: np.ndarray, return_std: bool = False):
+  def predict(self, counts: np.ndarray, return_std: bool = False,
+              segments: Optional[np.ndarray] = None, contact: Optional[np.ndarray] = None):
     """(N, A) forces (output units) from (N, C) counts.
 
     Warns (`OutOfRangeWarning`, one warning naming the share of samples and the channels)
     when inputs leave the range the estimator was fitted on. With `return_std`, also (N, A)
     standard deviations: the members' spread per sample (an ensemble) combined with the
     validation residual spread of `info` (sqrt of the sum of squares).
+
+    An estimator with a temporal front end (`memory`) reads the counts as recordings in time
+    order: `segments` (N,) labels each sample's recording (None: one recording; its filters
+    and tares start afresh at each change of label), `contact` (N,) an optional contact flag
+    for its tare. A static estimator ignores both.
     """
     counts = linear.check_array(counts, "counts", self.n_inputs)
     self._check_range(counts)
+    if self.memory is not None:
+      counts = self.memory.features(counts, segments, contact)
     mean, spread = self._mean_spread(counts)
     if not return_std:
       return mean
@@ -300,6 +319,9 @@ class Estimator:
     if self.info is not None:
       arrays.update(self.info.arrays())
       meta["info"] = self.info.to_json()
+    if self.memory is not None:
+      sub, meta["memory"] = self.memory.arrays()
+      arrays.update(sub)
     return arrays, meta
 
   def save(self, path) -> None:
@@ -335,6 +357,14 @@ class Estimator:
 
 
 def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
+  if "memory" in meta:
+    memory = temporal.Memory.from_saved(meta["memory"], arrays)
+    stages = _from_saved({k: v for k, v in meta.items() if k != "memory"},
+                         {k: a for k, a in arrays.items() if not k.startswith("memory_")})
+    if stages._n_stage_inputs != memory.width:
+      raise ValueError(f"its stages read {stages._n_stage_inputs} features, its temporal "
+                       f"front end gives {memory.width}")
+    return dataclasses.replace(stages, memory=memory)
   kind = Kind(meta["kind"])
   info = Info.from_saved(meta["info"], arrays) if "info" in meta else None
   if "members" in meta:
@@ -745,3 +775,117 @@ def at_epoch_cap(est: Estimator, cap: int) -> Estimator:
   have been asked for that cap in `snapshots`)."""
   net, _ = est.training.snapshots[cap]
   return dataclasses.replace(est, net=net)
+
+
+# time constants the history features choose from, s: from the footpad's fast relaxation
+# (Prony tau1 0.1-2 s) to its slow one and the dies' drift (tens of seconds to minutes)
+TAU_CANDIDATES = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
+
+
+def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, *,
+                 segments: Optional[np.ndarray] = None, select: Optional[np.ndarray] = None,
+                 contact: Optional[np.ndarray] = None,
+                 taus: Optional[Sequence[float]] = None,
+                 candidates: Sequence[float] = TAU_CANDIDATES, max_taus: int = 3,
+                 differences: bool = True, tare: Optional[temporal.Tare] = None,
+                 folds: int = 5, seed: int = 0, inputs: Optional[Sequence[str]] = None,
+                 **kwargs) -> Estimator:
+  """Fits an estimator of `kind` behind a temporal front end (`calibrate.temporal.Memory`).
+
+  Args:
+    kind: the static stages (LS, POLY, LSANN, NN) fitted on the front end's features.
+    counts, forces: (N, C) counts and (N, A) forces of whole recordings in time order: the
+      filters and tares run over every sample, the fit takes `select`.
+    dt: s between samples.
+    segments: (N,) label of each sample's recording; filters and tares start afresh where it
+      changes, and the time constants are chosen holding out whole segments.
+    select: (N,) bool, the samples to fit on (None: all), e.g. the paper's on-path samples.
+    contact: (N,) bool contact flag for the tare (None: a linear map of the counts decides).
+    taus: the high-pass features' time constants, s; None: chosen from `candidates` by
+      grouped cross-validation of LS over `folds` folds of the segments (greedy, up to
+      `max_taus`, each kept only if it lowers the held-out error by 1 % or more).
+    differences: add each channel's first difference.
+    tare: drift tracking's rule (None: no tracking).
+    seed: for the folds and the static stages.
+    inputs: the channels' names.
+    kwargs: passed to `fit` for the static stages (e.g. `linear_fit` fitted on the same
+      front end's features, `config`, `groups` of the selected samples).
+  Returns:
+    The estimator: `predict(counts, segments=..., contact=...)` runs the front end.
+  """
+  counts, forces = linear.check_pair(counts, forces)
+  n, c = counts.shape
+  segments = np.zeros(n, int) if segments is None else np.asarray(segments)
+  select = np.ones(n, bool) if select is None else np.asarray(select, bool)
+  if segments.shape != (n,) or select.shape != (n,):
+    raise errors.DataError(f"segments and select need one value per sample ({n})")
+  names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
+  detector = reference = None
+  if tare is not None:
+    tare.validate()
+    if contact is None:
+      detector = linear.fit_linear(counts[select], forces[select])
+      probe = temporal.Memory(c, dt, tare=tare, detector=detector, reference=np.zeros(c))
+      # with no offset yet, the first unloaded interval of each recording marks samples free
+      free = probe.offsets(counts, segments)[1]
+    else:
+      free = ~np.asarray(contact, bool)
+    reference = temporal.reference_counts(counts, free)
+  base = temporal.Memory(c, dt, (), differences, tare, detector, reference)
+  base.validate()
+  if taus is None:
+    taus = _choose_taus(base, counts, forces, segments, select, contact, tuple(candidates),
+                        max_taus, folds, seed)
+  memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus))
+  memory.validate()
+  x = memory.features(counts, segments, contact)[select]
+  est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names), **kwargs)
+  raw = counts[select]
+  info = dataclasses.replace(
+      est.info, inputs=names, input_units=("counts",) * c, input_lo=raw.min(axis=0),
+      input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[select]),
+      settings={**est.info.settings, "memory": memory.arrays()[1]})
+  return dataclasses.replace(est, memory=memory, info=info)
+
+
+def _choose_taus(base, counts, forces, segments, select, contact, candidates, max_taus,
+                 folds, seed) -> tuple[float, ...]:
+  """The time constants, greedily, that lower LS's error on held-out segments."""
+  labels = segments[select]
+  if len(np.unique(labels)) < 2:
+    raise errors.SettingError("choosing the time constants holds out whole recordings: give "
+                              "two segments or more, or the time constants themselves")
+  groups = splits.groups(int(select.sum()), "recordings", labels)
+  parts = splits.folds(groups, min(folds, groups.count), seed)
+  every = dataclasses.replace(base, taus=candidates)
+  feats = every.features(counts, segments, contact)[select]
+  y = forces[select]
+  spread = np.maximum(y.std(axis=0), 1e-12)
+  ch = base.channels
+  column = {None: list(range(ch))}
+  for i, tau in enumerate(candidates):
+    column[tau] = list(range(ch * (1 + i), ch * (2 + i)))
+  if base.differences:
+    column["d"] = list(range(ch * (1 + len(candidates)), ch * (2 + len(candidates))))
+
+  def held_out(keys) -> float:
+    cols = sum((column[k] for k in keys), [])
+    err = 0.0
+    for train, test in parts:
+      lin = linear.fit_linear(feats[train][:, cols], y[train])
+      err += np.sum(((lin.predict(feats[test][:, cols]) - y[test]) / spread) ** 2)
+    return float(np.sqrt(err / len(y)))
+
+  chosen = [None] + (["d"] if base.differences else [])
+  best = held_out(chosen)
+  taus: list[float] = []
+  while len(taus) < max_taus:
+    trials = {t: held_out(chosen + taus + [t]) for t in candidates if t not in taus}
+    if not trials:
+      break
+    t, score = min(trials.items(), key=lambda kv: kv[1])
+    if score > 0.99 * best or best < 1e-9:  # below 1e-9 of the spread nothing is left
+      break
+    taus.append(t)
+    best = score
+  return tuple(sorted(taus))

@@ -1,0 +1,241 @@
+"""Calibrators that remember: a front end that gives a static estimator the recording's past.
+
+Every estimator of `calibrate.estimators` maps the C counts of one instant to a force, so it
+cannot undo what happened before that instant: a die's offset that drifted over minutes, the
+rubber's relaxation, the dies' hysteresis. `Memory` turns a recording into features that
+carry that past, causally (each sample's features use only that sample and earlier ones of
+its own recording), and the static estimator is fitted on them:
+
+- drift tracking (`Tare`): each channel is re-zeroed during unloaded intervals, as users of
+  an F/T sensor bias it before contact. A legged robot's foot is unloaded in every swing and
+  the CNC lifts the pad between strokes. An interval is unloaded where a linear map of the
+  counts (`Memory.detector`) reads a normal force below `Tare.threshold` for `Tare.hold`
+  samples in a row, or where a given contact flag says so; through the interval the offset is
+  the running mean of the counts since its start less their level at no load.
+- history features: each channel's distance from its exponentially filtered value at time
+  constants `taus` (x - LP_tau(x), a high-pass), and its first difference. The inverse of a
+  Prony relaxation is linear in such filters: for c = (g_inf + g1 tau s / (1 + tau s)) f,
+  f = (tau / tau* c + (1 - tau / tau*) LP_tau*(c)) / (g_inf + g1), tau* = tau (g_inf + g1) /
+  g_inf, so LS on these features undoes relaxation at the time constants it is given.
+
+Recordings never share a filter state: `segments` labels each sample's recording (or
+episode), and every filter and tare starts afresh where the label changes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional
+
+import numpy as np
+from scipy import signal
+
+from calibrate import linear
+from util import errors
+
+
+@dataclasses.dataclass(frozen=True)
+class Tare:
+  """The drift tracker's rule for unloaded intervals.
+
+  Attributes:
+    threshold: a sample is unloaded while the detector's normal force (output `axis`, in
+      its units, N) is within +-threshold of zero.
+    hold: samples in a row that must be unloaded before the channels are re-zeroed (a brief
+      dip through zero while loaded is not an unloaded foot).
+    axis: the detector's output that is the normal force.
+  """
+  threshold: float = 3.0
+  hold: int = 10
+  axis: int = 2
+
+  def validate(self) -> None:
+    if not (np.isfinite(self.threshold) and self.threshold > 0):
+      raise errors.SettingError(f"tare threshold={self.threshold!r} is out of range: a "
+                                f"force > 0")
+    if not (isinstance(self.hold, (int, np.integer)) and 1 <= self.hold <= 100_000):
+      raise errors.SettingError(f"tare hold={self.hold!r} is out of range: integers "
+                                f"1..100000 samples")
+
+
+@dataclasses.dataclass(frozen=True)
+class Memory:
+  """The temporal front end of an estimator.
+
+  Attributes:
+    channels: C, the raw input channels.
+    dt: s between samples.
+    taus: time constants of the high-pass features, s (empty: none).
+    differences: add each channel's first difference (counts per sample).
+    tare: the drift tracker's rule (None: no tracking).
+    detector: the linear map (counts -> forces) whose normal force the tare rule reads;
+      with a contact flag in `features` it is not needed.
+    reference: (C,) the channels' counts at no load, which tares restore.
+  """
+  channels: int
+  dt: float
+  taus: tuple[float, ...] = ()
+  differences: bool = False
+  tare: Optional[Tare] = None
+  detector: Optional[linear.LinearFit] = None
+  reference: Optional[np.ndarray] = None
+
+  @property
+  def width(self) -> int:
+    """Features per sample: the channels, then C per time constant, then C differences."""
+    return self.channels * (1 + len(self.taus) + int(self.differences))
+
+  def names(self, inputs: tuple[str, ...]) -> tuple[str, ...]:
+    """Names of the features, from the channels' names."""
+    out = list(inputs)
+    for tau in self.taus:
+      out += [f"{n}-lp{tau:g}s" for n in inputs]
+    if self.differences:
+      out += [f"d{n}" for n in inputs]
+    return tuple(out)
+
+  def validate(self) -> None:
+    if not (np.isfinite(self.dt) and self.dt > 0):
+      raise errors.SettingError(f"dt={self.dt!r} is out of range: the time between samples, "
+                                f"> 0 s")
+    for tau in self.taus:
+      if not (np.isfinite(tau) and tau > 0):
+        raise errors.SettingError(f"time constant {tau!r} is out of range: > 0 s")
+    if self.tare is not None:
+      self.tare.validate()
+
+  def offsets(self, counts: np.ndarray, segments: Optional[np.ndarray] = None,
+              contact: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
+    """(N, C) the tracked offset of every sample (zero without a tare) and (N,) bool, the
+    samples at which a tare updated it."""
+    counts = np.asarray(counts, float)
+    n = len(counts)
+    out, updated = np.zeros_like(counts), np.zeros(n, bool)
+    if self.tare is None:
+      return out, updated
+    if contact is None and self.detector is None:
+      raise errors.SettingError("a tare needs a contact flag or a detector map")
+    if contact is not None:
+      contact = np.asarray(contact).astype(bool)
+    for lo, hi in _runs(segments, n):
+      self._tare_segment(counts[lo:hi], None if contact is None else contact[lo:hi],
+                         out[lo:hi], updated[lo:hi])
+    return out, updated
+
+  def _tare_segment(self, c, contact, out, updated) -> None:
+    """Fills out (n, C) and updated (n,) for one recording, in time order."""
+    tare, ref = self.tare, self.reference
+    n = len(c)
+    offset = np.zeros(self.channels)
+    if contact is None:  # the normal force the detector reads from untared counts
+      raw = self.detector.predict(c)[:, tare.axis]
+      slope = self.detector.predict(np.zeros((1, self.channels)))[0, tare.axis]
+      # F(c - o) = F(c) - (F(o) - F(0)) for the linear map
+      unit = np.array([self.detector.predict(np.eye(self.channels)[[k]])[0, tare.axis]
+                       - slope for k in range(self.channels)])
+    start = 0
+    while start < n:
+      if contact is None:
+        free = np.abs(raw[start:] - unit @ offset) < tare.threshold
+      else:
+        free = ~contact[start:]
+      lo, hi = _first_run(free, tare.hold)
+      if lo is None:
+        out[start:] = offset
+        return
+      lo, hi = lo + start, hi + start
+      first = lo + tare.hold - 1  # causal: re-zeroed once the interval has lasted `hold`
+      out[start:first] = offset
+      running = np.cumsum(c[lo:hi], axis=0) / np.arange(1, hi - lo + 1)[:, None]
+      out[first:hi] = running[tare.hold - 1:] - ref
+      updated[first:hi] = True
+      offset = out[hi - 1].copy()
+      start = hi
+
+  def features(self, counts: np.ndarray, segments: Optional[np.ndarray] = None,
+               contact: Optional[np.ndarray] = None) -> np.ndarray:
+    """(N, width) features of (N, C) counts in time order; `segments` (N,) labels each
+    sample's recording (None: one recording), `contact` (N,) a contact flag for the tare
+    (None: the detector decides)."""
+    counts = np.asarray(counts, float)
+    if counts.ndim != 2 or counts.shape[1] != self.channels:
+      raise errors.DataError(f"counts have shape {counts.shape}: expected (N, {self.channels})")
+    if segments is not None and len(segments) != len(counts):
+      raise errors.DataError(f"segments has {len(segments)} labels for {len(counts)} samples")
+    x = counts - self.offsets(counts, segments, contact)[0]
+    parts = [x]
+    runs = _runs(segments, len(x))
+    for tau in self.taus:
+      a = np.exp(-self.dt / tau)
+      lp = np.empty_like(x)
+      for lo, hi in runs:  # y[0] = x[0]: each recording starts at rest
+        lp[lo:hi] = signal.lfilter([1.0 - a], [1.0, -a], x[lo:hi], axis=0,
+                                   zi=a * x[lo:lo + 1])[0]
+      parts.append(x - lp)
+    if self.differences:
+      d = np.zeros_like(x)
+      for lo, hi in runs:
+        d[lo + 1:hi] = np.diff(x[lo:hi], axis=0)
+      parts.append(d)
+    return np.concatenate(parts, axis=1)
+
+  def arrays(self) -> tuple[dict, dict]:
+    """(arrays, JSON-able settings) for an estimator file."""
+    meta = {"channels": self.channels, "dt": self.dt, "taus": list(self.taus),
+            "differences": self.differences}
+    arrays = {}
+    if self.tare is not None:
+      meta["tare"] = dataclasses.asdict(self.tare)
+      arrays["memory_reference"] = self.reference
+      if self.detector is not None:
+        for f in ("mean", "scale", "coef", "bias"):
+          arrays[f"memory_detector_{f}"] = getattr(self.detector, f)
+        meta["detector_rank"] = self.detector.rank
+    return arrays, meta
+
+  @staticmethod
+  def from_saved(meta: dict, arrays: dict) -> "Memory":
+    tare = detector = reference = None
+    if "tare" in meta:
+      tare = Tare(**meta["tare"])
+      reference = arrays["memory_reference"]
+      if "memory_detector_coef" in arrays:
+        detector = linear.LinearFit(*(arrays[f"memory_detector_{f}"]
+                                      for f in ("mean", "scale", "coef", "bias")),
+                                    int(meta["detector_rank"]), 1)
+    mem = Memory(int(meta["channels"]), float(meta["dt"]), tuple(map(float, meta["taus"])),
+                 bool(meta["differences"]), tare, detector, reference)
+    mem.validate()
+    if reference is not None and reference.shape != (mem.channels,):
+      raise ValueError("the tare's reference does not fit the channels")
+    return mem
+
+
+def _runs(segments: Optional[np.ndarray], n: int) -> list[tuple[int, int]]:
+  """[(start, stop)] of the contiguous runs of equal labels (one run without labels)."""
+  if segments is None or n == 0:
+    return [(0, n)]
+  s = np.asarray(segments)
+  cut = np.flatnonzero(s[1:] != s[:-1]) + 1
+  edges = np.concatenate([[0], cut, [n]])
+  return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
+
+
+def _first_run(mask: np.ndarray, length: int) -> tuple[Optional[int], Optional[int]]:
+  """(start, stop) of the first run of True at least `length` long, else (None, None)."""
+  m = np.concatenate([[False], mask, [False]])
+  edges = np.flatnonzero(m[1:] != m[:-1])
+  starts, stops = edges[::2], edges[1::2]
+  long = np.flatnonzero(stops - starts >= length)
+  if not len(long):
+    return None, None
+  return int(starts[long[0]]), int(stops[long[0]])
+
+
+def reference_counts(counts: np.ndarray, free: np.ndarray) -> np.ndarray:
+  """(C,) the channels' median counts over unloaded samples `free` (N,) bool."""
+  if not free.any():
+    raise errors.DataError("no unloaded sample to take the counts at no load from: the tare "
+                           "needs the recordings to hold unloaded intervals (or a contact "
+                           "flag)")
+  return np.median(np.asarray(counts, float)[free], axis=0)
