@@ -352,6 +352,10 @@ def _tare_code(tare: dict, c: int, counts: bool, info) -> tuple[list[str], list[
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
   from calibrate import estimators
+  if est.memory is not None:
+    raise errors.SettingError("this estimator has a temporal front end (drift tracking or "
+                              "history features), which the C export does not write yet: "
+                              "export a static estimator")
   c = est.n_inputs
   a = _outputs(est)
   w = _Writer()

@@ -128,6 +128,8 @@ def test_temporal_estimators_round_trip_through_a_file(tmp_path):
     back = estimators.Estimator.load(path)
     assert back.memory.taus == (0.3,) and back.memory.tare == est.memory.tare
     assert back.info.inputs == ("in0", "in1", "in2", "in3", "in4")
+    if kind is estimators.Kind.LSANN:  # the history reaches the LS stage; the net, the counts
+      assert back.linear.coef.shape[0] == 15 and back.net.w1.shape[1] == 5 + 1
     np.testing.assert_array_equal(back.predict(counts, segments=labels),
                                   est.predict(counts, segments=labels))
 
@@ -154,3 +156,13 @@ def test_bad_temporal_input_names_the_field():
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.3,))
   with pytest.raises(errors.DataError, match="segments has 3 labels"):
     est.predict(counts, segments=labels[:3])
+
+
+def test_the_c_export_refuses_a_front_end_it_cannot_write(tmp_path):
+  from calibrate import cexport
+  rng = np.random.default_rng(6)
+  counts, f, labels, _ = _drifting(rng, n=4000, segments=2)
+  est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.3,))
+  with pytest.raises(errors.SettingError, match="temporal front end"):
+    cexport.write(est, tmp_path)
+  assert not list(tmp_path.iterdir())
