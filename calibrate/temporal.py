@@ -41,8 +41,9 @@ class Tare:
   Attributes:
     threshold: a sample is unloaded while the detector's normal force (output `axis`, in
       its units, N) is within +-threshold of zero.
-    hold: samples in a row that must be unloaded before the channels are re-zeroed (a brief
-      dip through zero while loaded is not an unloaded foot).
+    hold: an interval must stay unloaded for 2 hold samples before the channels are
+      re-zeroed (a brief dip through zero while loaded is not an unloaded foot), and the tare
+      reads it `hold` samples late, so the samples of a load rising again never enter it.
     axis: the detector's output that is the normal force.
   """
   threshold: float = 3.0
@@ -107,23 +108,23 @@ class Memory:
   def offsets(self, counts: np.ndarray, segments: Optional[np.ndarray] = None,
               contact: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
     """(N, C) the tracked offset of every sample (zero without a tare) and (N,) bool, the
-    samples at which a tare updated it."""
+    samples whose counts a tare read (taken as unloaded)."""
     counts = np.asarray(counts, float)
     n = len(counts)
-    out, updated = np.zeros_like(counts), np.zeros(n, bool)
+    out, read = np.zeros_like(counts), np.zeros(n, bool)
     if self.tare is None:
-      return out, updated
+      return out, read
     if contact is None and self.detector is None:
       raise errors.SettingError("a tare needs a contact flag or a detector map")
     if contact is not None:
       contact = np.asarray(contact).astype(bool)
     for lo, hi in _runs(segments, n):
       self._tare_segment(counts[lo:hi], None if contact is None else contact[lo:hi],
-                         out[lo:hi], updated[lo:hi])
-    return out, updated
+                         out[lo:hi], read[lo:hi])
+    return out, read
 
-  def _tare_segment(self, c, contact, out, updated) -> None:
-    """Fills out (n, C) and updated (n,) for one recording, in time order."""
+  def _tare_segment(self, c, contact, out, read) -> None:
+    """Fills out (n, C) and read (n,) for one recording, in time order."""
     tare, ref = self.tare, self.reference
     n = len(c)
     offset = np.zeros(self.channels)
@@ -144,11 +145,19 @@ class Memory:
         out[start:] = offset
         return
       lo, hi = lo + start, hi + start
-      first = lo + tare.hold - 1  # causal: re-zeroed once the interval has lasted `hold`
+      # causal, and blind to the interval's last `hold` samples: the offset at sample n is
+      # the mean of the counts from the interval's start to n - hold, so the samples of a
+      # load rising back through the threshold, which end the interval, never enter it
+      first = lo + 2 * tare.hold - 1
+      if first >= hi:  # too short to tare
+        out[start:hi] = offset
+        start = hi
+        continue
       out[start:first] = offset
-      running = np.cumsum(c[lo:hi], axis=0) / np.arange(1, hi - lo + 1)[:, None]
+      running = np.cumsum(c[lo:hi - tare.hold], axis=0) / np.arange(1, hi - lo - tare.hold
+                                                                    + 1)[:, None]
       out[first:hi] = running[tare.hold - 1:] - ref
-      updated[first:hi] = True
+      read[lo:hi - tare.hold] = True
       offset = out[hi - 1].copy()
       start = hi
 

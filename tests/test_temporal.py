@@ -94,8 +94,8 @@ def test_tare_removes_a_drift_the_static_map_cannot():
   e_static = rms(static.predict(counts[test]))
   e_tared = rms(tared.predict(counts[test], segments=labels[test]))
   assert e_tared < 0.2 * e_static
-  updated = tared.memory.offsets(counts[test], labels[test])[1]
-  assert updated.sum() > 1000 and not (updated & ~free[test]).any()
+  read = tared.memory.offsets(counts[test], labels[test])[1]
+  assert read.sum() > 1000 and not (read & ~free[test]).any()
   # given as a contact flag, the same intervals: the same offsets
   flagged = estimators.fit_temporal(estimators.Kind.LS, counts[train], f[train], DT,
                                     segments=labels[train], taus=(), differences=False,

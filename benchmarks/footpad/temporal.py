@@ -12,8 +12,8 @@ whole episode, approach included, and are scored on the samples on the path, as 
 fits.
 
 Printed: test NRMSE and R2 per axis for each method (networks: median over `SEEDS` seeds),
-training seconds, the tare's false-tare rate (samples re-zeroed while the plate read more
-than 1 N); the floor, static LSANN with every history effect off (what a static
+training seconds, the tare's false-tare rate (the share of the samples the tares read as
+unloaded while the plate read more than 1 N); the floor, static LSANN with every history effect off (what a static
 map reaches without history); then the ablation: each history effect alone over that floor,
 static LSANN against LSANN with the front end, and the share of the error the effect adds
 that the front end recovers.
@@ -106,10 +106,10 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
     if method != "static":
       for m in [k for k in out if k.endswith(name)]:
         out[m]["taus"] = list(ls.memory.taus)
-      updated = ls.memory.offsets(test.counts, test.episode)[1]
+      read = ls.memory.offsets(test.counts, test.episode)[1]
       loaded = np.abs(test.wrench[:, 2]) > LOADED
-      out["tare"] = {"updated_share": float(updated.mean()),
-                     "false_tare_share": float((updated & loaded).sum() / max(updated.sum(), 1)),
+      out["tare"] = {"read_share": float(read.mean()),
+                     "false_tare_share": float((read & loaded).sum() / max(read.sum(), 1)),
                      "taus": list(ls.memory.taus)}
   return out
 
@@ -137,7 +137,7 @@ def run(ctx) -> dict:
       _row(ctx, name, r)
   tare = res["tare"]
   ctx.print(f"memory: time constants {tare['taus']} s chosen on held-out stroke episodes; "
-            f"tare updates {tare['updated_share']:.1%} of the test samples, "
+            f"the tares read {tare['read_share']:.2%} of the test samples, "
             f"{tare['false_tare_share']:.2%} of them while the plate read over {LOADED:g} N")
   # the floor: no history effect at all
   plain = dataclasses.replace(base, effects=tuple(e for e in base.effects
