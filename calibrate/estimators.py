@@ -919,9 +919,10 @@ def _choose_taus(base, counts, forces, segments, select, contact, candidates, ma
   best = held_out([None])
   kept: list = []
   options = list(candidates) + (["d"] if base.differences else [])
-  while sum(k != "d" for k in kept) < max_taus or ("d" in options and "d" not in kept):
-    trials = {t: held_out([None] + kept + [t]) for t in options if t not in kept
-              and (t == "d" or sum(k != "d" for k in kept) < max_taus)}
+  while True:
+    room = sum(k != "d" for k in kept) < max_taus
+    trials = {t: held_out([None] + kept + [t]) for t in options
+              if t not in kept and (t == "d" or room)}
     if not trials:
       break
     t, score = min(trials.items(), key=lambda kv: kv[1])

@@ -9,9 +9,9 @@ its own recording), and the static estimator is fitted on them:
 - drift tracking (`Tare`): each channel is re-zeroed during unloaded intervals, as users of
   an F/T sensor bias it before contact. A legged robot's foot is unloaded in every swing and
   the CNC lifts the pad between strokes. An interval is unloaded where a linear map of the
-  counts (`Memory.detector`) reads a normal force below `Tare.threshold` for `Tare.hold`
+  counts (`Memory.detector`) reads a normal force below `Tare.threshold` for 2 `Tare.hold`
   samples in a row, or where a given contact flag says so; through the interval the offset is
-  the running mean of the counts since its start less their level at no load.
+  the running mean of its counts up to `hold` samples before, less their level at no load.
 - history features: each channel's distance from its exponentially filtered value at time
   constants `taus` (x - LP_tau(x), a high-pass), and its first difference. The inverse of a
   Prony relaxation is linear in such filters: for c = (g_inf + g1 tau s / (1 + tau s)) f,
@@ -40,7 +40,8 @@ class Tare:
 
   Attributes:
     threshold: a sample is unloaded while the detector's normal force (output `axis`, in
-      its units, N) is within +-threshold of zero.
+      its units, N) is within +-threshold of zero: above what the drift makes it read at no
+      load, below the lightest load (the footpad: 10 N, `temporal_calibrators` says why).
     hold: an interval must stay unloaded for 2 hold samples before the channels are
       re-zeroed (a brief dip through zero while loaded is not an unloaded foot), and the tare
       reads it `hold` samples late, so the samples of a load rising again never enter it.
@@ -130,17 +131,17 @@ class Memory:
     offset = np.zeros(self.channels)
     if contact is None:  # the normal force the detector reads from untared counts
       raw = self.detector.predict(c)[:, tare.axis]
-      slope = self.detector.predict(np.zeros((1, self.channels)))[0, tare.axis]
-      # F(c - o) = F(c) - (F(o) - F(0)) for the linear map
-      unit = np.array([self.detector.predict(np.eye(self.channels)[[k]])[0, tare.axis]
-                       - slope for k in range(self.channels)])
+      # the linear map reads F(c - o) = F(c) - unit @ o (a dropped channel: scale 0, unit 0)
+      d = self.detector
+      unit = np.divide(d.coef[:, tare.axis], d.scale, out=np.zeros(self.channels),
+                       where=d.scale > 0)
     start = 0
     while start < n:
       if contact is None:
         free = np.abs(raw[start:] - unit @ offset) < tare.threshold
       else:
         free = ~contact[start:]
-      lo, hi = _first_run(free, tare.hold)
+      lo, hi = _first_run(free, 2 * tare.hold)
       if lo is None:
         out[start:] = offset
         return
@@ -149,10 +150,6 @@ class Memory:
       # the mean of the counts from the interval's start to n - hold, so the samples of a
       # load rising back through the threshold, which end the interval, never enter it
       first = lo + 2 * tare.hold - 1
-      if first >= hi:  # too short to tare
-        out[start:hi] = offset
-        start = hi
-        continue
       out[start:first] = offset
       running = np.cumsum(c[lo:hi - tare.hold], axis=0) / np.arange(1, hi - lo - tare.hold
                                                                     + 1)[:, None]

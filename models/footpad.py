@@ -325,11 +325,10 @@ def maxwell_arm(spec: mujoco.MjSpec, joint: str, stiffness: float, tau: float,
   with k y, so its force f = k y obeys f' = -f/tau - k v. Two integrations of that equation:
 
   - "native": the same motor with user activation dynamics (`maxwell_arm.c`, compiled once
-    per machine, see `arm_dynamics`) that step its equation explicitly like any
-    activation: stable while dt < 2 tau (tau
-    >= 0.01 s by its setting's range, dt <= 2 ms), within the Prony test's 3 %, and
-    1.2x the friction-only step cost against 1.65x for the motor (measured,
-    `footpad_throughput`).
+    per machine, see `arm_dynamics`) that step its equation explicitly like any activation:
+    stable while dt < 2 tau (tau >= 0.01 s by its setting's range, dt <= 2 ms), within the
+    Prony test's 3 %, and 1.2x the friction-only step cost against 1.65x for the motor
+    (measured, `footpad_throughput`).
   - "dcmotor": MuJoCo's passive DC motor with inductance, L i' = -R i - K v pushing with K i:
     the same equation for i = f / K when L = K^2 / k and R = L / tau. It needs no compiler,
     but the `discrete` integrator couples each motor implicitly, which costs the rest.

@@ -68,8 +68,8 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
   truth = test.wrench[test_sel, :3]
   out = {}
 
-  def score(pred):
-    return metrics.summary(pred[test_sel] if len(pred) == len(test_sel) else pred, truth, AXES)
+  def score(pred):  # every test sample predicted in time order, scored on the paths
+    return metrics.summary(pred[test_sel], truth, AXES)
 
   def median(runs):
     return {ax: {k: float(np.median([r[ax][k] for r in runs])) for k in runs[0][ax]}
@@ -80,7 +80,7 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
     t0 = time.perf_counter()
     if method == "static":
       ls = estimators.fit(K.LS, train.counts[ls_sel], y[ls_sel])
-      predict = lambda est: est.predict(test.counts[test_sel])  # noqa: E731
+      predict = lambda est: est.predict(test.counts)  # noqa: E731
       fit_net = lambda kind, seed: estimators.fit(  # noqa: E731
           kind, train.counts[net_sel], y[net_sel], linear_fit=ls.linear, seed=seed)
     else:
@@ -114,7 +114,7 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
   return out
 
 
-def _row(ctx, name, res, floor=None):
+def _row(ctx, name, res):
   t = res["test"]
   cells = "  ".join(f"{ax} {t[ax]['nrmse_pct']:6.2f} {t[ax]['r2_pct']:7.2f}" for ax in AXES)
   ctx.print(f"  {name:14s} {cells}   {res['seconds']:7.1f} s")
