@@ -208,6 +208,14 @@ def _training_args(p: argparse.ArgumentParser) -> None:
   p.add_argument("--tare-column", default=None, metavar="FLAG",
                  help="as --tare, the unloaded rows being those where the column FLAG is 0 "
                       "(a contact flag)")
+  p.add_argument("--history", type=_history, default=None, metavar="auto|SECONDS,...",
+                 help="give the estimator the recording's past (`calibrate.temporal`): each "
+                      "input's high-pass at these time constants and its first difference "
+                      "('auto': chosen on held-out recordings); needs the time column")
+  p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
+                 help="re-zero each input during unloaded intervals, those where the LS map's "
+                      "third target (the normal force) reads under NEWTONS for 20 samples; "
+                      "needs the time column")
   p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
                  help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
                       "the range, which are reported either way): +-2**BITS times the "
@@ -215,6 +223,19 @@ def _training_args(p: argparse.ArgumentParser) -> None:
 
 
 WIDTHS = (5, 10, 20, 40, 64)  # --hidden auto's candidates
+
+
+def _history(text: str):
+  """--history: 'auto' or time constants in seconds, comma-separated."""
+  if text.strip().lower() == "auto":
+    return "auto"
+  try:
+    taus = tuple(float(t) for t in text.split(",") if t.strip())
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not 'auto' or seconds, e.g. 0.1,1") from None
+  if not taus or not all(np.isfinite(t) and t > 0 for t in taus):
+    raise argparse.ArgumentTypeError(f"{text!r}: time constants are seconds > 0")
+  return taus
 
 
 def _hidden(text: str):
@@ -284,6 +305,10 @@ def _training(args):
     recording = recording * (1 + int(np.abs(column).max())) + column
   x, y = ready.x, ready.y
   args.prepared = ready.record
+  args.recording = recording  # each row's recording: the temporal front end's segments
+  args.dt = _sample_time(table, args, ready.rows, recording) \
+      if getattr(args, "history", None) is not None or getattr(args, "track_drift", None) \
+      is not None else None
   try:
     groups = splits_lib.groups(len(x), args.split, recording, x)
   except errors.SettingError as err:  # too few rows or recordings: say which file
@@ -293,6 +318,27 @@ def _training(args):
                input_units=[table.units[i] or "counts" for i in ins],
                output_units=[table.units[i] or "N" for i in outs])
   return table, x, y, groups, names
+
+
+def _static_only(what: str, args) -> None:
+  """Refuses the temporal front end's options where they would not be read."""
+  if args.history is not None or args.track_drift is not None:
+    raise errors.SettingError(f"{what} compares static estimators: --history and "
+                              f"--track-drift go with fit --method ls, poly, lsann or nn")
+
+
+def _sample_time(table, args, rows, recording) -> float:
+  """s between samples: the median step of the time column within recordings."""
+  t = table.column(args.time_column)
+  if t is None:
+    raise errors.SettingError(f"--history and --track-drift read the recording in time: "
+                              f"the files need a {args.time_column!r} column (or name it "
+                              f"with --time-column)")
+  t = t[rows]
+  step = np.diff(t)[np.diff(recording) == 0]
+  if not len(step):
+    raise errors.DataError(f"{table.path}: too few rows to tell the time between samples")
+  return float(np.median(step))
 
 
 def _held_out_groups(what: str, groups, args) -> None:
@@ -314,6 +360,7 @@ def _auto(args, x, y, groups, names):
 
 
 def compare(args) -> int:
+  _static_only("compare", args)
   if args.out is not None:
     files.output_file(args.out, "--out", (".csv",))
   table, x, y, groups, names = _training(args)
@@ -337,6 +384,8 @@ def compare(args) -> int:
 def fit(args) -> int:
   from calibrate import estimators
   files.output_file(args.out, "--out", (".npz",))
+  if args.method == "auto":
+    _static_only("fit --method auto", args)
   table, x, y, groups, names = _training(args)
   if args.method == "auto":
     est, candidates = _auto(args, x, y, groups, names)
@@ -351,13 +400,23 @@ def fit(args) -> int:
   config, widths = _config(args)
   if widths:
     _held_out_groups("--hidden auto", groups, args)
+  common = dict(config=config, widths=widths, val_fraction=args.val_fraction,
+                degree=args.degree, ensemble=args.ensemble, progress=progress,
+                groups=groups, folds=args.folds if groups.count >= 2 else 0,
+                cross=args.method == "poly" and not args.per_channel)
+  kind = estimators.Kind(args.method.upper())
   try:
-    est = estimators.fit(estimators.Kind(args.method.upper()), x, y, config=config,
-                         widths=widths,
-                         seed=args.seed, val_fraction=args.val_fraction, degree=args.degree,
-                         ensemble=args.ensemble, progress=progress, **names,
-                         groups=groups, folds=args.folds if groups.count >= 2 else 0,
-                         cross=args.method == "poly" and not args.per_channel)
+    if args.dt is None:
+      est = estimators.fit(kind, x, y, seed=args.seed, **names, **common)
+    else:
+      from calibrate import temporal
+      est = estimators.fit_temporal(
+          kind, x, y, args.dt, segments=args.recording, seed=args.seed,
+          taus=None if args.history == "auto" else (args.history or ()),
+          differences=args.history is not None,
+          tare=None if args.track_drift is None else temporal.Tare(args.track_drift),
+          inputs=names["inputs"], outputs=names["outputs"],
+          output_units=names["output_units"], **common)
     est = _with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "

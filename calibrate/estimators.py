@@ -822,6 +822,8 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
     differences: with `taus` given, add each channel's first difference; with taus None,
       whether the differences may be chosen.
     tare: drift tracking's rule (None: no tracking).
+    folds: grouped cross-validation folds, for the time constants (over the segments) and,
+      with `groups` in kwargs, for the static stages' held-out error and interval (`fit`).
     seed: for the folds and the static stages.
     inputs: the channels' names.
     memory: a front end fitted before (e.g. the LS stage's, for LSANN's network on other
@@ -848,10 +850,14 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
       raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
                              f"have {c}")
     return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                       network_history, kwargs)
+                       network_history, folds, kwargs)
   detector = reference = None
   if tare is not None:
     tare.validate()
+    if contact is None and not 0 <= tare.axis < forces.shape[1]:
+      raise errors.SettingError(f"the tare reads the normal force as target {tare.axis + 1} "
+                                f"of the LS map, and there are {forces.shape[1]} targets: "
+                                f"give the normal force as the third, or a contact flag")
     if contact is None:
       detector = linear.fit_linear(counts[select], forces[select])
       probe = temporal.Memory(c, dt, tare=tare, detector=detector, reference=np.zeros(c))
@@ -869,16 +875,18 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
                                differences=differences)
   memory.validate()
   return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                     network_history, kwargs)
+                     network_history, folds, kwargs)
 
 
 def _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                network_history, kwargs) -> Estimator:
-  """The static stages of `kind` fitted on `memory`'s features of the selected samples."""
+                network_history, folds, kwargs) -> Estimator:
+  """The static stages of `kind` fitted on `memory`'s features of the selected samples
+  (cross-validated over `folds` of the `groups` in kwargs, when there are any)."""
   c = counts.shape[1]
   x = memory.features(counts, segments, contact)[select]
   est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names),
-            net_inputs=None if network_history else c, **kwargs)
+            net_inputs=None if network_history else c,
+            folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
   raw = counts[select]
   info = dataclasses.replace(
       est.info, inputs=names, input_units=("counts",) * c, input_lo=raw.min(axis=0),
@@ -892,6 +900,10 @@ def _choose_taus(base, counts, forces, segments, select, contact, candidates, ma
   """The time constants, greedily, that lower LS's error on held-out segments, and whether
   the first differences do (when `base.differences` allows them)."""
   labels = segments[select]
+  if folds < 2:
+    raise errors.SettingError(f"choosing the time constants holds out recordings: folds="
+                              f"{folds} is out of range, give 2 or more (or the time "
+                              f"constants themselves)")
   if len(np.unique(labels)) < 2:
     raise errors.SettingError("choosing the time constants holds out whole recordings: give "
                               "two segments or more, or the time constants themselves")
