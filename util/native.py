@@ -54,7 +54,10 @@ def shared_library(source: pathlib.Path, include_dirs: tuple[str, ...] = (),
 
 def _build_and_load(source, out, cc, include_dirs) -> tuple[ctypes.CDLL | None, str]:
   if not out.exists():
-    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+      out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+      return None, f"cannot write the library into {out.parent}: {err}"
     with tempfile.TemporaryDirectory() as tmp:
       built = pathlib.Path(tmp) / out.name
       # -ffp-contract=off: no fused multiply-adds, so every machine rounds as the source reads
@@ -66,7 +69,10 @@ def _build_and_load(source, out, cc, include_dirs) -> tuple[ctypes.CDLL | None, 
         return None, f"{cc} failed to run: {err}"
       if proc.returncode != 0:
         return None, f"{cc} could not compile {source.name}: {proc.stderr.strip()[:400]}"
-      files.atomic_write(out, lambda f: f.write(built.read_bytes()))
+      try:
+        files.atomic_write(out, lambda f: f.write(built.read_bytes()))
+      except OSError as err:
+        return None, f"cannot write the library {out}: {err}"
   try:
     return ctypes.CDLL(str(out)), ""
   except OSError as err:
