@@ -415,8 +415,7 @@ def fit(args) -> int:
           taus=None if args.history == "auto" else (args.history or ()),
           differences=args.history is not None,
           tare=None if args.track_drift is None else temporal.Tare(args.track_drift),
-          inputs=names["inputs"], outputs=names["outputs"],
-          output_units=names["output_units"], **common)
+          **names, **common)
     est = _with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "

@@ -825,7 +825,7 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
     folds: grouped cross-validation folds, for the time constants (over the segments) and,
       with `groups` in kwargs, for the static stages' held-out error and interval (`fit`).
     seed: for the folds and the static stages.
-    inputs: the channels' names.
+    inputs: the channels' names (and `input_units` in kwargs their units, default counts).
     memory: a front end fitted before (e.g. the LS stage's, for LSANN's network on other
       paths): used as it is, and `taus`, `differences` and `tare` are not read.
     network_history: LSANN's and NN's network reads the history features too; by default it
@@ -883,13 +883,14 @@ def _fit_behind(memory, kind, counts, forces, segments, select, contact, names, 
   """The static stages of `kind` fitted on `memory`'s features of the selected samples
   (cross-validated over `folds` of the `groups` in kwargs, when there are any)."""
   c = counts.shape[1]
+  units = tuple(kwargs.pop("input_units", None) or ("counts",) * c)
   x = memory.features(counts, segments, contact)[select]
   est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names),
             net_inputs=None if network_history else c,
             folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
   raw = counts[select]
   info = dataclasses.replace(
-      est.info, inputs=names, input_units=("counts",) * c, input_lo=raw.min(axis=0),
+      est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
       input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[select]),
       settings={**est.info.settings, "memory": memory.arrays()[1]})
   return dataclasses.replace(est, memory=memory, info=info)
