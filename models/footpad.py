@@ -279,9 +279,12 @@ def build_spec(params: FootpadParams, friction: bool = True, viscoelastic: bool 
   centres = params.element_centres()
   sag = params.crown_sag()
   g1, tau1, g2, tau2 = params.prony
-  kind = (arms or arm_dynamics()[0]) if viscoelastic else None
-  if kind == "native" and arm_dynamics()[0] != "native":
-    raise errors.SettingError(f"arms='native': the callback is unavailable ({arm_dynamics()[1]})")
+  kind = None
+  if viscoelastic:
+    available, why = arm_dynamics()
+    kind = arms or available
+    if kind == "native" and available != "native":
+      raise errors.SettingError(f"arms='native': the callback is unavailable ({why})")
   if kind not in (None, "native", "dcmotor"):
     raise errors.SettingError(f"arms is {arms!r}: expected 'native', 'dcmotor' or None")
   arms = ((g1, tau1), (g2, tau2)) if viscoelastic else ()

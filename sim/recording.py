@@ -82,19 +82,25 @@ class Recording:
 
   def paths(self, *names: str) -> "Recording":
     """The samples of the named paths."""
+    return self.select(self._path_mask(names))
+
+  def on_path(self, *names: str) -> "Recording":
+    """The samples on the named paths (all paths if none) at their indentation (phase 1)."""
+    return self.select(self.on_path_mask(*names))
+
+  def on_path_mask(self, *names: str) -> np.ndarray:
+    """(N,) True for the samples `on_path` keeps: for a calibrator that reads the whole
+    recording in time order (`calibrate.temporal`) and is scored on the paths."""
+    return (self._path_mask(names) if names else np.ones(len(self), bool)) & (self.phase == 1)
+
+  def _path_mask(self, names) -> np.ndarray:
     if self.path is None:
       raise errors.DataError("this recording has no paths (it is not a footpad recording)")
     known = self.meta["paths"]
     for n in names:
       if n not in known:
         raise errors.DataError(f"path {n!r} is not in this recording: it has {', '.join(known)}")
-    idx = [known.index(n) for n in names]
-    return self.select(np.isin(self.path, idx))
-
-  def on_path(self, *names: str) -> "Recording":
-    """The samples on the named paths (all paths if none) at their indentation (phase 1)."""
-    rec = self.paths(*names) if names else self
-    return rec.select(rec.phase == 1)
+    return np.isin(self.path, [known.index(n) for n in names])
 
   def save(self, stem: str | os.PathLike) -> pathlib.Path:
     """Writes stem.npz (the arrays) and stem.json (the metadata with the format tag and a

@@ -47,14 +47,6 @@ def tare_rule():
   return temporal.Tare(threshold=10.0, hold=10)
 
 
-def _masks(rec, names=()):
-  known = rec.meta["paths"]
-  m = rec.phase == 1
-  if names:
-    m = m & np.isin(rec.path, [known.index(n) for n in names])
-  return m
-
-
 def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "LSANN", "NN")
              ) -> dict:
   """{method name: {"test": per-axis summary (networks: median over seeds), "seconds",
@@ -63,8 +55,8 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
   from sim.footpad import protocol
   dt = float(train.meta["config"]["params"]["timestep"])
   y = train.wrench[:, :3]
-  ls_sel, net_sel, test_sel = _masks(train, protocol.LS_PATHS), _masks(train, ("asterisk",)), \
-      _masks(test)
+  ls_sel, net_sel = train.on_path_mask(*protocol.LS_PATHS), train.on_path_mask("asterisk")
+  test_sel = test.on_path_mask()
   truth = test.wrench[test_sel, :3]
   out = {}
 
