@@ -5,6 +5,8 @@
 * LSANN: LS, then the network fitted to the residual F - F_LS from the six counts (paper
   Sec. III-C: "the input is the array of voltage signals"; Eqn 8 sums the two).
 * NN: the same network fitted to F from the six counts.
+* GRU: LS, then a small recurrent network (`calibrate.recurrent`) fitted to the residual from
+  the counts' past: a temporal estimator, fitted by `fit_temporal` on whole recordings.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from calibrate import linear, mlp, splits
+from calibrate import linear, mlp, recurrent, splits
 from calibrate import poly as poly_lib
 from calibrate import temporal
 from util import errors, files
@@ -28,6 +30,7 @@ class Kind(enum.Enum):
   POLY = "POLY"
   LSANN = "LSANN"
   NN = "NN"
+  GRU = "GRU"  # LS plus a recurrent network on the residual (`fit_temporal` only)
   AUTO = "AUTO"  # per output, the candidate with the lowest held-out error (`fit_auto`)
 
 
@@ -178,6 +181,7 @@ class Estimator:
   # a temporal front end (`calibrate.temporal`): the stages above then read its features of
   # the counts, and `info` describes the raw counts
   memory: Optional[temporal.Memory] = None
+  rnn: Optional[recurrent.GRU] = None  # GRU: the recurrent network on LS's residual
 
   @property
   def n_inputs(self) -> int:
@@ -195,7 +199,12 @@ class Estimator:
       return len(one.poly.mean)
     return len(one.linear.mean) if one.linear is not None else one.net.w1.shape[1] - 1
 
-  def _predict_one(self, counts: np.ndarray) -> np.ndarray:
+  def _predict_one(self, counts: np.ndarray, starts: Optional[np.ndarray] = None
+                   ) -> np.ndarray:
+    if self.rnn is not None:  # the recurrent network reads the first of the stages' inputs
+      first = recurrent.starts(None, len(counts)) if starts is None else starts
+      return self.linear.predict(counts) + self.rnn.predict(counts[:, :self.rnn.inputs],
+                                                            first)
     if self.kind is Kind.NN:
       return self.net.predict(self._net_view(counts))
     if self.poly is not None:
@@ -224,9 +233,11 @@ class Estimator:
     """
     counts = linear.check_array(counts, "counts", self.n_inputs)
     self._check_range(counts)
+    starts = None
     if self.memory is not None:
+      starts = recurrent.starts(segments, len(counts))
       counts = self.memory.features(counts, segments, contact)
-    mean, spread = self._mean_spread(counts)
+    mean, spread = self._mean_spread(counts, starts)
     if not return_std:
       return mean
     sd = np.zeros_like(mean) if spread is None else spread
@@ -234,8 +245,9 @@ class Estimator:
       sd = np.sqrt(sd ** 2 + self.info.residual_sd ** 2)
     return mean, sd
 
-  def _mean_spread(self, counts: np.ndarray):
-    """(N, A) prediction and the members' spread (None without members), unchecked."""
+  def _mean_spread(self, counts: np.ndarray, starts: Optional[np.ndarray] = None):
+    """(N, A) prediction and the members' spread (None without members), unchecked; `starts`
+    (N,) bool marks where each recording begins, for a recurrent stage."""
     if self.parts:
       each = [p._mean_spread(counts) for p in self.parts]
       for k, held in self._guarded(counts).items():
@@ -247,7 +259,7 @@ class Estimator:
     if self.members:
       each = np.stack([m._predict_one(counts) for m in self.members])
       return each.mean(axis=0), each.std(axis=0)
-    return self._predict_one(counts), None
+    return self._predict_one(counts, starts), None
 
   def guard(self) -> Optional[int]:
     """AUTO: the index of its LS part, whose plane carries the network parts beyond the
@@ -308,6 +320,8 @@ class Estimator:
       arrays.update(net_w1=self.net.w1, net_w2=self.net.w2, net_x_lo=self.net.x_scale.lo,
                     net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
                     net_y_hi=self.net.y_scale.hi)
+    if self.rnn is not None:
+      arrays.update({f"rnn_{f}": getattr(self.rnn, f) for f in recurrent.GRU.FIELDS})
     if self.training is not None:
       meta["stop"] = self.training.stop.name
       meta["epochs"] = self.training.epochs
@@ -386,7 +400,10 @@ def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
     if kind is not Kind.AUTO or not all(0 <= k < len(parts) for k in pick):
       raise ValueError("its parts do not fit its outputs")
     return Estimator(kind, info=info, parts=parts, pick=pick)
-  lin = net = None
+  lin = net = rnn = None
+  if "rnn_w" in arrays:
+    rnn = recurrent.GRU(*(arrays[f"rnn_{f}"] for f in recurrent.GRU.FIELDS))
+    rnn.check()
   if "poly_coef" in arrays:
     p = poly_lib.PolyFit(*(arrays[f"poly_{f}"] for f in ("mean", "scale", "lo", "hi")),
                          arrays["poly_powers"].astype(int), arrays["poly_coef"],
@@ -413,10 +430,14 @@ def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
     if net.w2.shape[1] != h + 1 or net.x_scale.lo.shape != (inputs - 1,) or \
        net.y_scale.lo.shape != (net.w2.shape[0],):
       raise ValueError("the network's arrays do not fit together")
-  if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None):
+  if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None) \
+     or ((kind is Kind.GRU) != (rnn is not None)):
     raise ValueError(f"a {kind.value} estimator needs its "
                      f"{'linear stage' if lin is None else 'network'}")
-  return Estimator(kind, lin, net, info=info)
+  if rnn is not None and (rnn.v.shape[0] != lin.coef.shape[1]
+                          or rnn.inputs > len(lin.mean)):
+    raise ValueError("the recurrent network does not fit the linear stage")
+  return Estimator(kind, lin, net, info=info, rnn=rnn)
 
 
 FORMAT = "testbench-estimator"
@@ -499,6 +520,9 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
   if kind is Kind.AUTO:
     raise errors.SettingError("method AUTO chooses among the others on held-out groups: call "
                               "fit_auto(counts, forces, groups, folds)")
+  if kind is Kind.GRU:
+    raise errors.SettingError("method GRU reads recordings in time order: call fit_temporal("
+                              "'GRU', counts, forces, dt, segments=...)")
   counts, forces = linear.check_pair(counts, forces)
   if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
     raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
@@ -602,17 +626,21 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
                                                      seed, one_fit, config)
     if ls_only.any():
       members = [_ls_only(m, ls_only) for m in members]
-    # every sample its own group (the paper's split): no recording offsets to tell apart
-    offsets = _group_means(residual, groups.labels) if groups.how != "samples" else None
-    within = residual if offsets is None else \
-        residual - offsets[np.unique(groups.labels, return_inverse=True)[1]]
-    extra = dict(interval_abs=np.quantile(np.abs(within), INTERVAL_GRID, axis=0),
-                 interval_n=len(residual), interval_offsets=offsets,
-                 validation={**stats, "ls_only": [given["outputs"][j]
-                                                  for j in np.flatnonzero(ls_only)]})
+    extra = _held_out(residual, groups, {**stats, "ls_only": [
+        given["outputs"][j] for j in np.flatnonzero(ls_only)]})
   out = [dataclasses.replace(m, info=Info(residual_sd=sd, **base, **extra))
          for m, sd in zip(members, sds)]
   return out[0] if len(out) == 1 else combine(out)
+
+
+def _held_out(residual: np.ndarray, groups: splits.Groups, stats: dict) -> dict:
+  """`Info`'s interval fields from held-out residuals (N, A) of grouped cross-validation."""
+  # every sample its own group (the paper's split): no recording offsets to tell apart
+  offsets = _group_means(residual, groups.labels) if groups.how != "samples" else None
+  within = residual if offsets is None else \
+      residual - offsets[np.unique(groups.labels, return_inverse=True)[1]]
+  return dict(interval_abs=np.quantile(np.abs(within), INTERVAL_GRID, axis=0),
+              interval_n=len(residual), interval_offsets=offsets, validation=stats)
 
 
 def _group_means(values: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -803,11 +831,13 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
                  differences: bool = True, tare: Optional[temporal.Tare] = None,
                  folds: int = 5, seed: int = 0, inputs: Optional[Sequence[str]] = None,
                  memory: Optional[temporal.Memory] = None, network_history: bool = False,
-                 **kwargs) -> Estimator:
+                 gru: recurrent.GRUConfig = recurrent.GRUConfig(), **kwargs) -> Estimator:
   """Fits an estimator of `kind` behind a temporal front end (`calibrate.temporal.Memory`).
 
   Args:
-    kind: the static stages (LS, POLY, LSANN, NN) fitted on the front end's features.
+    kind: the stages (LS, POLY, LSANN, NN, GRU) fitted on the front end's features. GRU is
+      LS on the features plus a recurrent network (`calibrate.recurrent`) that reads the
+      tared counts in time and is fitted to LS's residual on the selected samples.
     counts, forces: (N, C) counts and (N, A) forces of whole recordings in time order: the
       filters and tares run over every sample, the fit takes `select`.
     dt: s between samples.
@@ -833,11 +863,13 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
       network given the history of its training paths fits it, and other paths' histories
       differ (measured, footpad with drift alone, a 10 s high-pass chosen: LSANN X NRMSE 4.5
       % static, 9.9 % with the network reading it).
+    gru: the recurrent network's settings (GRU only).
     kwargs: passed to `fit` for the static stages (e.g. `linear_fit` fitted on the same
       front end's features, `config`, `groups` of the selected samples).
   Returns:
     The estimator: `predict(counts, segments=..., contact=...)` runs the front end.
   """
+  kind = Kind(kind)
   counts, forces = linear.check_pair(counts, forces)
   n, c = counts.shape
   segments = np.zeros(n, int) if segments is None else np.asarray(segments)
@@ -850,7 +882,7 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
       raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
                              f"have {c}")
     return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                       network_history, folds, kwargs)
+                       network_history, folds, kwargs, gru)
   detector = reference = None
   if tare is not None:
     tare.validate()
@@ -875,25 +907,89 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
                                differences=differences)
   memory.validate()
   return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                     network_history, folds, kwargs)
+                     network_history, folds, kwargs, gru)
 
 
 def _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                network_history, folds, kwargs) -> Estimator:
+                network_history, folds, kwargs, gru=recurrent.GRUConfig()) -> Estimator:
   """The static stages of `kind` fitted on `memory`'s features of the selected samples
   (cross-validated over `folds` of the `groups` in kwargs, when there are any)."""
   c = counts.shape[1]
   units = tuple(kwargs.pop("input_units", None) or ("counts",) * c)
-  x = memory.features(counts, segments, contact)[select]
-  est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names),
-            net_inputs=None if network_history else c,
-            folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
+  if kind is Kind.GRU:
+    est = _fit_gru(memory, memory.features(counts, segments, contact), forces, segments,
+                   select, memory.names(names), seed, folds, gru, kwargs)
+  else:
+    x = memory.features(counts, segments, contact)[select]
+    est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names),
+              net_inputs=None if network_history else c,
+              folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
   raw = counts[select]
   info = dataclasses.replace(
       est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
       input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[select]),
       settings={**est.info.settings, "memory": memory.arrays()[1]})
   return dataclasses.replace(est, memory=memory, info=info)
+
+
+def _fit_gru(memory, x, forces, segments, select, names, seed, folds, config, kwargs
+             ) -> Estimator:
+  """GRU on the features x (N, width) of whole recordings: the LS stage on the selected
+  samples (or `linear_fit` in kwargs, fitted before), the recurrent network on its residual
+  over the recordings that hold selected samples; with `groups` in kwargs and `folds`, the whole fit cross-validated over them (the
+  held-out samples' targets never reach the loss; their inputs pass through the state, as at
+  use). `Info` (in feature space) as `fit` gives it, the residual spread from the network's
+  held-out recordings."""
+  if kwargs.pop("ensemble", 1) != 1:
+    raise errors.SettingError("an ensemble of recurrent networks is not built: ensemble=1 "
+                              "with method GRU")
+  progress = kwargs.pop("progress", None)
+  groups = kwargs.pop("groups", None)
+  given = kwargs.pop("linear_fit", None)
+  for unread in ("config", "widths", "degree", "cross", "ridge", "snapshots", "val_block",
+                 "net_inputs"):
+    kwargs.pop(unread, None)
+  config.validate()
+  c, n = memory.channels, len(x)
+  runs = temporal._runs(segments, n)
+  first = recurrent.starts(segments, n)
+
+  def one(rows, bar, lin=None):
+    lin = lin or linear.fit_linear(x[rows], forces[rows])
+    have = [(lo, hi) for lo, hi in runs if rows[lo:hi].any()]
+    net, res = recurrent.train(x[:, :c], forces - lin.predict(x), have, rows, config, seed,
+                               bar)
+    return lin, net, res
+
+  lin, net, res = one(select, progress, given)
+  ls = fit(Kind.LS, x[select], forces[select], seed=seed, inputs=names, **kwargs)
+  pred = lin.predict(x) + net.predict(x[:, :c], first)
+  held = np.zeros(n, bool)
+  for lo, hi in res.held_out:
+    held[lo:hi] = True
+  held &= select
+  sd = np.std(forces[held] - pred[held], axis=0)
+  settings = {**ls.info.settings, "method": Kind.GRU.value, "seed": seed,
+              "gru": dataclasses.asdict(config)}
+  info = dataclasses.replace(ls.info, residual_sd=sd, settings=settings)
+  if folds and groups is not None and groups.count >= 2:
+    rows_of = np.flatnonzero(select)
+    residual = np.zeros((len(rows_of), forces.shape[1]))
+    parts = splits.folds(groups, folds, seed)
+    for tr, va in parts:
+      rows = np.zeros(n, bool)
+      rows[rows_of[tr]] = True
+      f_lin, f_net, _ = one(rows, None)
+      out = f_lin.predict(x) + f_net.predict(x[:, :c], first)
+      residual[va] = forces[rows_of[va]] - out[rows_of[va]]
+    stats = {"split": groups.how, "groups": groups.count, "block": groups.block,
+             "folds": len(parts), "cv_rmse": np.sqrt(np.mean(residual ** 2, axis=0)).tolist(),
+             "cv_fold_rmse": [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
+                              for _, va in parts], "ls_only": []}
+    info = dataclasses.replace(info, **_held_out(residual, groups, stats))
+    info = dataclasses.replace(info, settings={**info.settings, "split": groups.how,
+                                               "groups": groups.count})
+  return Estimator(Kind.GRU, linear=lin, rnn=net, training=res, info=info)
 
 
 def _choose_taus(base, counts, forces, segments, select, contact, candidates, max_taus,

@@ -47,8 +47,8 @@ def tare_rule():
   return temporal.Tare(threshold=10.0, hold=10)
 
 
-def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "LSANN", "NN")
-             ) -> dict:
+def evaluate(train, test, seeds, methods=("static", "temporal"),
+             kinds=("LS", "LSANN", "NN", "GRU")) -> dict:
   """{method name: {"test": per-axis summary (networks: median over seeds), "seconds",
   "taus"}} and the tare's figures, for the protocol's recordings `train` and `test`."""
   from calibrate import estimators, metrics
@@ -85,8 +85,8 @@ def evaluate(train, test, seeds, methods=("static", "temporal"), kinds=("LS", "L
     name = "" if method == "static" else "+memory"
     if "LS" in kinds:
       out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0}
-    for kind in ("LSANN", "NN"):
-      if kind not in kinds:
+    for kind in ("LSANN", "NN", "GRU"):
+      if kind not in kinds or (kind == "GRU" and method == "static"):
         continue
       runs, secs = [], []
       for seed in seeds:

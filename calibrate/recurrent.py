@@ -1,0 +1,343 @@
+"""A small gated recurrent network (GRU) in JAX: the residual a static map leaves, from the
+recording's past.
+
+The cell (PyTorch's `nn.GRU` equations, so its weights read the same), for inputs x_t (D,)
+and hidden state h (H,):
+
+  r = sigmoid(W_r x_t + b_r + U_r h),  z = sigmoid(W_z x_t + b_z + U_z h)
+  n = tanh(W_n x_t + b_n + r * (U_n h + c_n)),  h' = (1 - z) * n + z * h
+  y_t = V h' + v
+
+with inputs standardised (`x_mean`, `x_scale`) and outputs in standardised units (`y_mean`,
+`y_scale`). The state starts at zero at the start of every recording (`segments`), as it
+does on the sensor's microcontroller at power-up or after `estimate_reset()`.
+
+Training (`train`) is truncated back-propagation through time on windows cut from the
+training recordings, never across a recording's end: a window of `GRUConfig.window` samples
+starts every window - burn_in samples, and only a window that starts its recording scores
+its first `burn_in` samples (elsewhere the state there is not yet the one `predict` carries
+in). Adam on the mean squared error of the selected samples, float64, seeded; early stopping
+on held-out recordings (whole ones; with few recordings, contiguous blocks of them, never
+single samples beside training ones), keeping the weights of the best held-out check.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Callable, Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from calibrate import mlp
+from util import errors
+
+
+@dataclasses.dataclass(frozen=True)
+class GRUConfig:
+  """Training settings.
+
+  Attributes:
+    hidden: H, hidden units (8-16: what a Cortex-M3 can step at 1 kHz, `cexport`).
+    window: samples per training window.  burn_in: samples at the start of a window that
+      is not its recording's start that the loss skips.
+    batch: windows per Adam step.  learning_rate: Adam's step size.
+    steps: the cap on Adam steps.  check: steps between held-out evaluations.
+    patience: held-out evaluations in a row without a better error that stop training.
+    val_fraction: share held out for the early stop (one recording or block at least).
+    min_recordings: with this many recordings or more, whole recordings are held out; with
+      fewer, contiguous blocks of `block` samples (a recording's past still runs through
+      the state; the held-out block's targets never reach the loss).
+  """
+  hidden: int = 8
+  window: int = 512
+  burn_in: int = 128
+  batch: int = 16
+  learning_rate: float = 1e-2
+  steps: int = 3000
+  check: int = 50
+  patience: int = 10
+  val_fraction: float = 0.2
+  min_recordings: int = 5
+  block: int = 2000
+
+  def validate(self) -> None:
+    ints = {"hidden": (1, 256), "window": (8, 1_000_000), "batch": (1, 100_000),
+            "steps": (1, 10_000_000), "check": (1, 1_000_000), "patience": (1, 1_000_000),
+            "min_recordings": (2, 1_000_000), "block": (8, 10_000_000)}
+    for name, (lo, hi) in ints.items():
+      v = getattr(self, name)
+      if not (isinstance(v, (int, np.integer)) and lo <= v <= hi):
+        raise errors.SettingError(f"GRU {name}={v!r} is out of range: integers {lo}..{hi}")
+    if not (isinstance(self.burn_in, (int, np.integer)) and 0 <= self.burn_in < self.window):
+      raise errors.SettingError(f"GRU burn_in={self.burn_in!r} is out of range: integers "
+                                f"0..window-1 ({self.window - 1})")
+    if not (np.isfinite(self.learning_rate) and 0 < self.learning_rate <= 1):
+      raise errors.SettingError(f"GRU learning_rate={self.learning_rate!r} is out of range: "
+                                f"(0, 1]")
+    if not 0 < self.val_fraction < 1:
+      raise errors.SettingError(f"GRU val_fraction={self.val_fraction!r} is out of range: "
+                                f"(0, 1)")
+
+
+@dataclasses.dataclass(frozen=True)
+class GRU:
+  """A fitted cell and its scalings (plain float64 arrays).
+
+  Attributes:
+    w: (3H, D) input weights, gates r, z, n stacked.  u: (3H, H) recurrent weights.
+    b: (3H,) input biases.  c: (H,) the n gate's recurrent bias.
+    v: (A, H) output weights.  v0: (A,) output bias.
+    x_mean, x_scale: (D,) input standardisation.  y_mean, y_scale: (A,) output's.
+  """
+  w: np.ndarray
+  u: np.ndarray
+  b: np.ndarray
+  c: np.ndarray
+  v: np.ndarray
+  v0: np.ndarray
+  x_mean: np.ndarray
+  x_scale: np.ndarray
+  y_mean: np.ndarray
+  y_scale: np.ndarray
+
+  FIELDS = ("w", "u", "b", "c", "v", "v0", "x_mean", "x_scale", "y_mean", "y_scale")
+
+  @property
+  def hidden(self) -> int:
+    return self.u.shape[1]
+
+  @property
+  def inputs(self) -> int:
+    return self.w.shape[1]
+
+  def check(self) -> None:
+    """Raises ValueError when the arrays do not fit together."""
+    h, d, a = self.hidden, self.inputs, self.v.shape[0]
+    shapes = {"w": (3 * h, d), "u": (3 * h, h), "b": (3 * h,), "c": (h,), "v": (a, h),
+              "v0": (a,), "x_mean": (d,), "x_scale": (d,), "y_mean": (a,), "y_scale": (a,)}
+    bad = [k for k, s in shapes.items() if getattr(self, k).shape != s]
+    if bad:
+      raise ValueError(f"the recurrent network's arrays {', '.join(bad)} do not fit together")
+
+  @mlp.float64
+  def predict(self, x: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """(N, A) outputs for (N, D) inputs in time order; starts (N,) bool marks the first
+    sample of each recording, where the state is zero."""
+    xs = jnp.asarray((np.asarray(x, float) - self.x_mean) / self.x_scale)
+    p = {k: jnp.asarray(getattr(self, k)) for k in ("w", "u", "b", "c", "v", "v0")}
+    out = _run_reset(p, xs, jnp.asarray(starts, bool))
+    return np.asarray(out) * self.y_scale + self.y_mean
+
+
+def _cell(p, h, x):
+  """One step for a batch: h (B, H), x (B, D) -> h' (B, H)."""
+  hid = p["u"].shape[1]
+  gx = x @ p["w"].T + p["b"]
+  gh = h @ p["u"].T
+  r = jax.nn.sigmoid(gx[:, :hid] + gh[:, :hid])
+  z = jax.nn.sigmoid(gx[:, hid:2 * hid] + gh[:, hid:2 * hid])
+  n = jnp.tanh(gx[:, 2 * hid:] + r * (gh[:, 2 * hid:] + p["c"]))
+  return (1 - z) * n + z * h
+
+
+@jax.jit
+def _run_reset(p, xs, starts):
+  """The whole sequence (N, D), state zeroed where `starts`: (N, A)."""
+  def step(h, inp):
+    x, s = inp
+    h = jnp.where(s, 0.0, h)
+    h = _cell(p, h[None], x[None])[0]
+    return h, h @ p["v"].T + p["v0"]
+  h0 = jnp.zeros(p["u"].shape[1], xs.dtype)
+  return jax.lax.scan(step, h0, (xs, starts), unroll=8)[1]
+
+
+def _run_windows(p, xs):
+  """Windows (B, L, D) from a zero state: (B, L, A)."""
+  def step(h, x):
+    h = _cell(p, h, x)
+    return h, h @ p["v"].T + p["v0"]
+  h0 = jnp.zeros((xs.shape[0], p["u"].shape[1]), xs.dtype)
+  return jnp.swapaxes(jax.lax.scan(step, h0, jnp.swapaxes(xs, 0, 1), unroll=8)[1], 0, 1)
+
+
+def _loss(p, xs, ys, mask):
+  err = (_run_windows(p, xs) - ys) ** 2 * mask[..., None]
+  return jnp.sum(err) / jnp.maximum(jnp.sum(mask) * ys.shape[-1], 1.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainResult:
+  """How training went: Adam steps run (`epochs`, as the networks' results name it), why it
+  stopped (`mlp.Stop`), the held-out MSE at every `GRUConfig.check` steps (standardised
+  units; the first at the start point), the step whose weights were kept, wall seconds
+  after compilation and the compilation's seconds."""
+  epochs: int
+  stop: mlp.Stop
+  val_mse: np.ndarray
+  best_epoch: int
+  seconds: float
+  compile_seconds: float
+  held_out: tuple[tuple[int, int], ...] = ()  # the (start, stop) of the held-out recordings
+
+
+def windows(starts_of_runs, select: np.ndarray, window: int, burn_in: int
+            ) -> list[tuple[int, int, int]]:
+  """[(start, stop, first scored)] sample ranges of the training windows: each run (start,
+  stop) of one recording is cut into windows of at most `window` samples every window -
+  burn_in samples, none crossing the run's end; a window scores from its start when it
+  starts the run, else from burn_in samples in, so every sample is scored once. Windows
+  that score no selected sample are left out."""
+  out = []
+  stride = window - burn_in
+  for lo, hi in starts_of_runs:
+    k = lo
+    while True:
+      stop = min(k + window, hi)
+      first = k if k == lo else k + burn_in
+      if first < stop and select[first:stop].any():
+        out.append((k, stop, first))
+      if stop >= hi:
+        break
+      k += stride
+  return out
+
+
+def _pack_windows(x, y, select, spans, window):
+  """(B, L, D), (B, L, A), (B, L) mask arrays of the windows, zero-padded at the end."""
+  b = len(spans)
+  xs = np.zeros((b, window, x.shape[1]))
+  ys = np.zeros((b, window, y.shape[1]))
+  mask = np.zeros((b, window))
+  for i, (lo, hi, first) in enumerate(spans):
+    xs[i, :hi - lo] = x[lo:hi]
+    ys[i, :hi - lo] = y[lo:hi]
+    mask[i, first - lo:hi - lo] = select[first:hi]
+  return xs, ys, mask
+
+
+def _init(key, d: int, h: int, a: int) -> dict:
+  """Glorot-uniform input weights, orthogonal recurrent blocks, zero biases, and a small
+  output layer (the residual starts near zero: the static map's own answer)."""
+  k1, k2, k3 = jax.random.split(key, 3)
+  lim = np.sqrt(6.0 / (d + h))
+  w = jax.random.uniform(k1, (3 * h, d), jnp.float64, -lim, lim)
+  u = jnp.concatenate([jnp.linalg.qr(jax.random.normal(k, (h, h), jnp.float64))[0]
+                       for k in jax.random.split(k2, 3)])
+  v = 0.1 * jax.random.normal(k3, (a, h), jnp.float64) / np.sqrt(h)
+  return {"w": w, "u": u, "b": jnp.zeros(3 * h), "c": jnp.zeros(h), "v": v,
+          "v0": jnp.zeros(a)}
+
+
+@mlp.float64
+def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.ndarray,
+          config: GRUConfig = GRUConfig(), seed: int = 0,
+          progress: Optional[Callable[[int, int], None]] = None) -> tuple[GRU, TrainResult]:
+  """Fits the cell to targets y (N, A) from inputs x (N, D).
+
+  Args:
+    x, y: whole recordings in time order.  runs: [(start, stop)] of each recording (or
+      episode): no window crosses one.  select: (N,) bool, the samples the loss reads.
+    config: settings.  seed: integer driving the held-out recordings, the start point (JAX
+      key) and the windows' order.
+    progress: called as progress(step, config.steps) at each held-out evaluation, and
+      progress(step, step) at an early stop.
+  """
+  config.validate()
+  rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+  if len(runs) >= config.min_recordings:
+    units = list(runs)
+  else:  # too few recordings to hold whole ones out: contiguous blocks of them
+    units = [(k, min(k + config.block, hi)) for lo, hi in runs
+             for k in range(lo, hi, config.block)]
+  order = rng.permutation(len(units))
+  n_val = min(len(units) - 1, max(1, int(round(config.val_fraction * len(units)))))
+  val_units = [units[k] for k in sorted(order[:n_val])]
+  held = np.zeros(len(x), bool)
+  for lo, hi in val_units:
+    held[lo:hi] = True
+  fit_rows, val_rows = select & ~held, select & held
+  if not fit_rows.any() or not val_rows.any():
+    raise errors.DataError("no selected sample in the training or in the held-out part")
+  x_mean, x_scale = x[fit_rows].mean(axis=0), x[fit_rows].std(axis=0)
+  x_scale = np.where(x_scale > 0, x_scale, 1.0)
+  y_mean, y_scale = y[fit_rows].mean(axis=0), y[fit_rows].std(axis=0)
+  y_scale = np.where(y_scale > 0, y_scale, 1.0)
+  xs, ys = (x - x_mean) / x_scale, (y - y_mean) / y_scale
+  tr = windows(runs, fit_rows, config.window, config.burn_in)
+  va = windows(runs, val_rows, config.window, config.burn_in)
+  if not tr or not va:
+    raise errors.DataError("no training or no held-out window holds a selected sample")
+  tx, ty, tm = _pack_windows(xs, ys, fit_rows, tr, config.window)
+  vx, vy, vm = (jnp.asarray(a) for a in _pack_windows(xs, ys, val_rows, va, config.window))
+  d, a, h = x.shape[1], y.shape[1], config.hidden
+  key = jax.random.key(seed)
+  p = _init(key, d, h, a)
+  lr, b1, b2, eps = config.learning_rate, 0.9, 0.999, 1e-8
+
+  @jax.jit
+  def step(p, m, v, t, bx, by, bm):
+    loss, g = jax.value_and_grad(_loss)(p, bx, by, bm)
+    m = jax.tree.map(lambda m, g: b1 * m + (1 - b1) * g, m, g)
+    v = jax.tree.map(lambda v, g: b2 * v + (1 - b2) * g * g, v, g)
+    corr = jnp.sqrt(1 - b2 ** t) / (1 - b1 ** t)
+    p = jax.tree.map(lambda p, m, v: p - lr * corr * m / (jnp.sqrt(v) + eps), p, m, v)
+    return p, m, v, loss
+
+  held = jax.jit(_loss)
+  m = jax.tree.map(jnp.zeros_like, p)
+  v = jax.tree.map(jnp.zeros_like, p)
+  bsz = min(config.batch, len(tr))
+  n_batches = -(-len(tr) // bsz)
+  pad = n_batches * bsz - len(tr)  # the last batch filled with unscored windows
+  tx = np.concatenate([tx, np.zeros((pad,) + tx.shape[1:])])
+  ty = np.concatenate([ty, np.zeros((pad,) + ty.shape[1:])])
+  tm = np.concatenate([tm, np.zeros((pad,) + tm.shape[1:])])
+  t0 = time.perf_counter()
+  jax.block_until_ready(step(p, m, v, 1.0, tx[:bsz], ty[:bsz], tm[:bsz]))
+  hist = [float(held(p, vx, vy, vm))]
+  compile_s = time.perf_counter() - t0
+  best, best_check, stop = p, 0, mlp.Stop.MAX_EPOCHS
+  t1 = time.perf_counter()
+  perm = rng.permutation(len(tx))
+  for t in range(1, config.steps + 1):
+    k = (t - 1) % n_batches
+    if k == 0 and t > 1:  # each pass over the windows in a new order
+      perm = rng.permutation(len(tx))
+    idx = perm[k * bsz:(k + 1) * bsz]
+    p, m, v, _ = step(p, m, v, float(t), tx[idx], ty[idx], tm[idx])
+    if t % config.check and t < config.steps:
+      continue
+    hist.append(float(held(p, vx, vy, vm)))
+    if not np.isfinite(hist[-1]):
+      raise errors.DataError(f"the recurrent network's held-out error became {hist[-1]} at "
+                             f"step {t}: lower its learning_rate ({config.learning_rate:g})")
+    if progress:
+      progress(t, config.steps)
+    if hist[-1] < hist[best_check]:
+      best, best_check = p, len(hist) - 1
+    elif len(hist) - 1 - best_check >= config.patience:
+      stop = mlp.Stop.VALIDATION
+      break
+  seconds = time.perf_counter() - t1
+  if progress and t < config.steps:
+    progress(t, t)
+  net = GRU(*(np.asarray(best[k]) for k in ("w", "u", "b", "c", "v", "v0")),
+            x_mean, x_scale, y_mean, y_scale)
+  return net, TrainResult(t, stop, np.array(hist), best_check * config.check, seconds,
+                          compile_s, tuple(val_units))
+
+
+def starts(segments: Optional[np.ndarray], n: int) -> np.ndarray:
+  """(N,) bool: the first sample of each recording (each change of label)."""
+  out = np.zeros(n, bool)
+  if n:
+    out[0] = True
+  if segments is not None and n > 1:
+    s = np.asarray(segments)
+    out[1:] = s[1:] != s[:-1]
+  return out
+
