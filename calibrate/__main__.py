@@ -27,7 +27,7 @@ import numpy as np
 from calibrate import csvfile, prepare, splits as splits_lib, streams
 from util import cli, errors, files
 
-METHODS = ("ls", "poly", "lsann", "nn", "auto")
+METHODS = ("ls", "poly", "lsann", "nn", "gru", "auto")
 # median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
 THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
 
@@ -52,7 +52,9 @@ def _parser() -> argparse.ArgumentParser:
                      metavar="{" + ",".join(METHODS) + "}",
                      help="ls: linear least squares; poly: polynomial with cross terms; "
                           "lsann: LS plus a network on its residual; nn: the network alone; "
-                          "auto: all four on the same held-out groups, the best kept per "
+                          "gru: LS plus a small recurrent network (GRU) on its residual, "
+                          "reading the inputs' past (needs the time column); auto: ls, "
+                          "poly, lsann and nn on the same held-out groups, the best kept per "
                           "output")
       p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                      help="where to write the estimator (default estimator.npz)")
@@ -191,7 +193,9 @@ def _training_args(p: argparse.ArgumentParser) -> None:
   p.add_argument("--weight-decay", type=float, default=0.0,
                  help="networks: the penalty lambda |w|^2 on the (scaled) weights, for data "
                       "with few distinct load states (default 0, trainlm's)")
-  p.add_argument("--epochs", type=int, default=1000, help="epoch cap (default 1000, trainlm's)")
+  p.add_argument("--epochs", type=int, default=None,
+                 help="epoch cap (default 1000, trainlm's); gru: the cap on Adam steps "
+                      "(default 3000)")
   p.add_argument("--degree", type=int, default=3,
                  help="poly: the highest degree (default 3); with cross-validation the degree "
                       "1..this and the ridge weight are chosen on held-out groups")
@@ -252,10 +256,25 @@ def _config(args):
   """(network settings, widths to choose from) of the options."""
   from calibrate import mlp
   auto = args.hidden == "auto"
-  config = mlp.LMConfig(hidden=10 if auto else args.hidden, epochs=args.epochs,
+  config = mlp.LMConfig(hidden=10 if auto else args.hidden,
+                        epochs=1000 if args.epochs is None else args.epochs,
                         weight_decay=args.weight_decay)
   config.validate()
   return config, WIDTHS if auto else ()
+
+
+def _gru_config(args):
+  """The recurrent network's settings of the options (--hidden, --epochs as its steps)."""
+  from calibrate import recurrent
+  if args.method != "gru":
+    return recurrent.GRUConfig()
+  if args.hidden == "auto":
+    raise errors.SettingError("--hidden auto chooses the width of lsann and nn: give gru a "
+                              "number of hidden units (--hidden 8)")
+  config = recurrent.GRUConfig(hidden=args.hidden, **(
+      {} if args.epochs is None else {"steps": args.epochs}))
+  config.validate()
+  return config
 
 
 def _method(text: str) -> str:
@@ -308,7 +327,7 @@ def _training(args):
   args.recording = recording  # each row's recording: the temporal front end's segments
   args.dt = _sample_time(table, args, ready.rows, recording) \
       if getattr(args, "history", None) is not None or getattr(args, "track_drift", None) \
-      is not None else None
+      is not None or getattr(args, "method", None) == "gru" else None
   try:
     groups = splits_lib.groups(len(x), args.split, recording, x)
   except errors.SettingError as err:  # too few rows or recordings: say which file
@@ -324,14 +343,15 @@ def _static_only(what: str, args) -> None:
   """Refuses the temporal front end's options where they would not be read."""
   if args.history is not None or args.track_drift is not None:
     raise errors.SettingError(f"{what} compares static estimators: --history and "
-                              f"--track-drift go with fit --method ls, poly, lsann or nn")
+                              f"--track-drift go with fit --method ls, poly, lsann, nn or gru")
 
 
 def _sample_time(table, args, rows, recording) -> float:
   """s between samples: the median step of the time column within recordings."""
   t = table.column(args.time_column)
   if t is None:
-    raise errors.SettingError(f"--history and --track-drift read the recording in time: "
+    raise errors.SettingError(f"--history, --track-drift and --method gru read the recording "
+                              f"in time: "
                               f"the files need a {args.time_column!r} column (or name it "
                               f"with --time-column)")
   t = t[rows]
@@ -415,7 +435,7 @@ def fit(args) -> int:
           taus=None if args.history == "auto" else (args.history or ()),
           differences=args.history is not None,
           tare=None if args.track_drift is None else temporal.Tare(args.track_drift),
-          **names, **common)
+          gru=_gru_config(args), **names, **common)
     est = _with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
@@ -518,6 +538,12 @@ def _report_fit(est, table, args, y: np.ndarray, groups) -> None:
     print(f"training stopped: {len(stops)} networks ({'; '.join(why)}), after "
           f"{epochs.min()}-{epochs.max()} epochs (median {np.median(epochs):.0f}), "
           f"{sum(t.seconds for t in stops):.1f} s in all")
+  elif stops and est.rnn is not None:  # a recurrent network: Adam steps, held-out checks
+    t = stops[0]
+    why = "the step cap" if t.stop.name == "MAX_EPOCHS" else \
+        f"{est.info.settings['gru']['patience']} held-out checks without a better error"
+    print(f"training stopped: {why} after {t.epochs} Adam steps ({t.seconds:.1f} s); kept "
+          f"the weights of step {t.best_epoch}")
   elif stops:
     print("training stopped: " + "; ".join(
         f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))

@@ -111,6 +111,8 @@ class _Writer:
     self.macs = 0
     self.tanh = 0
     self.stack = 0
+    self.state: list[str] = []  # static variables a temporal estimator carries between calls
+    self.resets: list[str] = []  # the lines of estimate_reset() that set them to a start
 
   def array(self, name: str, a: np.ndarray) -> str:
     a = np.asarray(a, np.float64)
@@ -212,6 +214,127 @@ class _Writer:
         "  }"]
 
 
+  def gru(self, rnn, tag: str) -> None:
+    """The recurrent network (`calibrate.recurrent.GRU`) on the first D of x[], its state in
+    a static array that `estimate_reset` zeroes; sigmoid(v) as 0.5 + 0.5 tanhf(v / 2)."""
+    h, d, a = rnn.hidden, rnn.inputs, rnn.v.shape[0]
+    xm, xi = self.array(f"{tag}_XMEAN", rnn.x_mean), self.array(f"{tag}_XINV", 1 / rnn.x_scale)
+    w, u = self.array(f"{tag}_W", rnn.w), self.array(f"{tag}_U", rnn.u)
+    b, c = self.array(f"{tag}_B", rnn.b), self.array(f"{tag}_C", rnn.c)
+    v, v0 = self.array(f"{tag}_V", rnn.v), self.array(f"{tag}_V0", rnn.v0)
+    ym, ys = self.array(f"{tag}_YMEAN", rnn.y_mean), self.array(f"{tag}_YSCALE", rnn.y_scale)
+    self.state.append(f"static float {tag}_H[{h}];")
+    self.resets.append(f"  for (int k = 0; k < {h}; ++k) {tag}_H[k] = 0.0f;")
+    self.macs += d + 3 * h * (d + h) + 6 * h + a * (h + 1)
+    self.tanh += 3 * h
+    self.stack = max(self.stack, 4 * (d + 4 * h))
+    self.code += [
+        "  { /* recurrent network (GRU): standardise, gates r, z, n, new state, linear output */",
+        f"    float s[{d}], g[{3 * h}], hn[{h}];",
+        f"    for (int i = 0; i < {d}; ++i) s[i] = (x[i] - {xm}[i]) * {xi}[i];",
+        f"    for (int k = 0; k < {3 * h}; ++k) {{",
+        f"      float e = {b}[k];",
+        f"      for (int i = 0; i < {d}; ++i) e += {w}[k * {d} + i] * s[i];",
+        "      g[k] = e;",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {{",
+        f"      float ur = 0.0f, uz = 0.0f, un = {c}[k];",
+        f"      for (int j = 0; j < {h}; ++j) {{",
+        f"        ur += {u}[k * {h} + j] * {tag}_H[j];",
+        f"        uz += {u}[({h} + k) * {h} + j] * {tag}_H[j];",
+        f"        un += {u}[({2 * h} + k) * {h} + j] * {tag}_H[j];",
+        "      }",
+        "      float r = 0.5f + 0.5f * tanhf(0.5f * (g[k] + ur));",
+        f"      float z = 0.5f + 0.5f * tanhf(0.5f * (g[{h} + k] + uz));",
+        f"      float n = tanhf(g[{2 * h} + k] + r * un);",
+        f"      hn[k] = (1.0f - z) * n + z * {tag}_H[k];",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {tag}_H[k] = hn[k];",
+        f"    for (int j = 0; j < {a}; ++j) {{",
+        f"      float e = {v0}[j];",
+        f"      for (int k = 0; k < {h}; ++k) e += {v}[j * {h} + k] * {tag}_H[k];",
+        f"      acc[j] += e * {ys}[j] + {ym}[j];",
+        "    }",
+        "  }"]
+
+  def memory(self, mem, raw: str) -> list[str]:
+    """C lines that turn this sample's inputs raw[] into the front end's features x[]
+    (`calibrate.temporal.Memory.features`, streamed): the tare's state machine, then each
+    channel's high-pass at every time constant and its first difference. The state lives
+    in static variables that `estimate_reset` sets to a recording's start."""
+    c, t = mem.channels, len(mem.taus)
+    lines = []
+    if mem.tare is not None:
+      if mem.detector is None:
+        raise errors.SettingError("this estimator tares by a contact flag, which the C export "
+                                  "does not read: fit it with a tare from the counts "
+                                  "(--track-drift NEWTONS)")
+      tr, d = mem.tare, mem.detector
+      ax, hold = tr.axis, int(tr.hold)
+      inv = np.where(d.scale > 0, 1.0 / np.where(d.scale > 0, d.scale, 1.0), 0.0)
+      unit = self.array("TARE_UNIT", d.coef[:, ax] * inv)
+      dmean, ref = self.array("TARE_DET_MEAN", d.mean), self.array("TARE_REF", mem.reference)
+      self.state += [f"static float tare_judge[{c}], tare_now[{c}], tare_sum[{c}];",
+                     f"static float tare_ring[{hold}][{c}];", "static int tare_run, tare_n;"]
+      self.resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] = "
+                      f"tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
+      self.macs += 3 * c + 2
+      lines += [
+          "  { /* drift tracking: unloaded while the detector's normal force stays within",
+          f"     * +-{tr.threshold:g} for {2 * hold} samples; then the offset is the mean of the",
+          f"     * interval's counts up to {hold} samples back, less their level at no load */",
+          "    for (int pass = 0; pass < 2; ++pass) {",
+          f"      float fz = {_literal(d.bias[ax])};",
+          f"      for (int i = 0; i < {c}; ++i) fz += {unit}[i] * ({raw}[i] - {dmean}[i] - "
+          "tare_judge[i]);",
+          f"      if (fabsf(fz) < {_literal(tr.threshold)}) {{",
+          f"        float *slot = tare_ring[tare_run % {hold}];",
+          f"        if (tare_run >= {hold}) {{",
+          f"          for (int i = 0; i < {c}; ++i) tare_sum[i] += slot[i];",
+          "          ++tare_n;",
+          "        }",
+          f"        for (int i = 0; i < {c}; ++i) slot[i] = {raw}[i] - {ref}[i];",
+          "        ++tare_run;",
+          f"        if (tare_run >= {2 * hold})",
+          f"          for (int i = 0; i < {c}; ++i) tare_now[i] = tare_sum[i] / (float)tare_n;",
+          "        break;",
+          "      }",
+          f"      int ended = tare_run >= {2 * hold};",
+          f"      tare_run = tare_n = 0;",
+          f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
+          "      if (!ended) break;",
+          "      /* an interval ended: this sample is judged again against its offset */",
+          f"      for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i];",
+          "    }",
+          "  }"]
+      now = "tare_now[i]"
+    else:
+      now = "0.0f"
+    self.state += [f"static float mem_raw[{c}], mem_tare[{c}];", "static int mem_fresh = 1;"]
+    self.resets.append("  mem_fresh = 1;")
+    if t:
+      alphas = self.array("MEM_ALPHA", np.exp(-mem.dt / np.asarray(mem.taus)))
+      self.state.append(f"static float mem_hp[{t}][{c}];")
+      self.macs += t * c
+    # the step dx from the raw step (exact for integer counts) less the offset's step: the
+    # high-passes and differences in float32 lose nothing to the counts' level (~2,000)
+    lines += [f"  for (int i = 0; i < {c}; ++i) {{",
+              f"    float dx = mem_fresh ? 0.0f : ({raw}[i] - mem_raw[i]) - ({now} - "
+              "mem_tare[i]);",
+              f"    x[i] = {raw}[i] - {now};"]
+    if t:  # x - LP_tau(x) kept directly: hp = a (hp + dx), 0 at a recording's start
+      lines += [f"    for (int k = 0; k < {t}; ++k) {{",
+                f"      mem_hp[k][i] = mem_fresh ? 0.0f : {alphas}[k] * (mem_hp[k][i] + dx);",
+                f"      x[{c} * (1 + k) + i] = mem_hp[k][i];",
+                "    }"]
+    if mem.differences:
+      lines.append(f"    x[{c * (1 + t)} + i] = dx;")
+    lines += [f"    mem_raw[i] = {raw}[i];", f"    mem_tare[i] = {now};", "  }",
+              "  mem_fresh = 0;"]
+    self.stack = max(self.stack, 4 * mem.width)
+    return lines
+
+
 def comment_text(name: str) -> str:
   """A column name as it may stand inside a C block comment: ASCII only (other characters
   as \\uXXXX escapes), no control characters, and no `*/` or `/*` that would close or nest
@@ -286,6 +409,8 @@ def _compute(est, w: _Writer, c: int, a: int, dest: str, prefix: str = "") -> li
       w.linear(m.linear, f"{tag}_LIN", c)
     if m.kind in (estimators.Kind.NN, estimators.Kind.LSANN):
       w.network(m.net, f"{tag}_NET")
+    if m.rnn is not None:
+      w.gru(m.rnn, f"{tag}_GRU")
   code, w.code = w.code[before:], w.code[:before]
   if not code:
     raise errors.DataError("the estimator has neither a linear stage nor a network to export")
@@ -352,13 +477,12 @@ def _tare_code(tare: dict, c: int, counts: bool, info) -> tuple[list[str], list[
 def write(est, out_dir, budget: Budget = Budget()) -> Report:
   """Writes out_dir/estimator.h and out_dir/estimator.c for `est`; returns their cost."""
   from calibrate import estimators
-  if est.memory is not None:
-    raise errors.SettingError("this estimator has a temporal front end (drift tracking or "
-                              "history features), which the C export does not write yet: "
-                              "export a static estimator")
   c = est.n_inputs
   a = _outputs(est)
   w = _Writer()
+  mem = est.memory
+  front = w.memory(mem, "raw") if mem is not None else []
+  width = mem.width if mem is not None else c  # what the stages read
   members = est.members or (est,)
   if est.parts:  # AUTO: each kept candidate into its own array, then each output from one
     body = [f"  float part[{len(est.parts)}][{a}];"]
@@ -383,7 +507,7 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       body.append(f"  out[{j}] = part[{k}][{j}]" + (f" + part[{ls}][{j}] - plane[{j}];"
                                                     if guarded else ";"))
   else:
-    body = _compute(est, w, c, a, "out")
+    body = _compute(est, w, width, a, "out")
   names = est.info.outputs if est.info is not None else tuple(f"out{j}" for j in range(a))
   units = est.info.output_units if est.info is not None else ("",) * a
   inputs = est.info.inputs if est.info is not None else tuple(f"in{i}" for i in range(c))
@@ -415,20 +539,34 @@ def write(est, out_dir, budget: Budget = Budget()) -> Report:
       + [f"#define ESTIMATOR_IN_{n} {i}" for i, n in enumerate(identifiers(inputs))]
       + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
       f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);", ""]
+      + (["/* A temporal estimator: estimate() reads the recording's past (drift tracking,",
+          " * filters" + (", the recurrent network's state" if w.resets and any(
+              "_GRU_H" in r for r in w.resets) else "") + "), so call it on every sample,",
+          f" * in order, every {mem.dt:g} s; call estimate_reset() at the start of each "
+          "recording", " * (power-up, a new episode). */",
+          f"#define ESTIMATOR_SAMPLE_SECONDS {_literal(mem.dt)}",
+          "void estimate_reset(void);", ""] if w.resets else [])
       + tare_h + ["#endif", ""])
   name = "counts" if counts else "inputs"
+  first = (" - tare_offset[i];" if tare else ";")
+  if mem is None:
+    inputs_code = [f"  float x[{c}];",
+                   f"  for (int i = 0; i < {c}; ++i) x[i] = (float){name}[i]" + first]
+  else:
+    inputs_code = [f"  float raw[{c}], x[{width}];",
+                   f"  for (int i = 0; i < {c}; ++i) raw[i] = (float){name}[i]" + first
+                   ] + front
+  reset = ["", "void estimate_reset(void) {"] + w.resets + ["}"] if w.resets else []
   source = "\n".join(
-      ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + tare_c + [
-          "",
-          f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]) {{",
-          f"  float x[{c}];",
-          f"  for (int i = 0; i < {c}; ++i) x[i] = (float){name}[i]"
-          + (" - tare_offset[i];" if tare else ";")] + body + ["}", ""])
+      ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + w.state + tare_c
+      + reset + ["",
+                 f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]) {{"]
+      + inputs_code + body + ["}", ""])
   out_dir = pathlib.Path(out_dir)
   out_dir.mkdir(parents=True, exist_ok=True)
   files.write_text(out_dir / "estimator.h", header)
   files.write_text(out_dir / "estimator.c", source)
-  stack = w.stack + 4 * (c + 2 * a + a * len(est.parts))
+  stack = w.stack + 4 * (c + width * (mem is not None) + 2 * a + a * len(est.parts))
   macs = w.macs
   cycles = tuple(macs * mc + w.tanh * tc for mc, tc in zip(budget.mac_cycles, budget.tanh_cycles))
   return Report(macs, w.tanh, w.flash, stack, cycles, budget,

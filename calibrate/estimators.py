@@ -235,8 +235,8 @@ class Estimator:
     self._check_range(counts)
     starts = None
     if self.memory is not None:
-      starts = recurrent.starts(segments, len(counts))
       counts = self.memory.features(counts, segments, contact)
+      starts = recurrent.starts(segments, len(counts))
     mean, spread = self._mean_spread(counts, starts)
     if not return_std:
       return mean
@@ -928,7 +928,9 @@ def _fit_behind(memory, kind, counts, forces, segments, select, contact, names, 
   info = dataclasses.replace(
       est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
       input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[select]),
-      settings={**est.info.settings, "memory": memory.arrays()[1]})
+      settings={**est.info.settings, "memory": memory.arrays()[1],
+                "integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
+                                              & (raw == np.round(raw))))})
   return dataclasses.replace(est, memory=memory, info=info)
 
 

@@ -158,12 +158,72 @@ def test_bad_temporal_input_names_the_field():
     est.predict(counts, segments=labels[:3])
 
 
-def test_the_c_export_refuses_a_front_end_it_cannot_write(tmp_path):
+CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
+STREAM = r"""
+#include <stdio.h>
+#include "estimator.h"
+int main(void) {  /* lines "label counts...": estimate_reset() where the label changes */
+  long label, last = -1;
+  while (scanf("%ld", &label) == 1) {
+    uint16_t c[ESTIMATOR_INPUTS]; float out[ESTIMATOR_OUTPUTS]; unsigned v;
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i) { if (scanf("%u", &v) != 1) return 1; c[i] = (uint16_t)v; }
+    if (label != last) estimate_reset();
+    last = label;
+    estimate(c, out);
+    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
+    printf("\n");
+  }
+  return 0;
+}
+"""
+
+
+def _run_in_c(est, counts, labels, tmp_path):
+  """The estimator exported, compiled with warnings as errors and run over the recording."""
+  import subprocess
+  from calibrate import cexport
+  report = cexport.write(est, tmp_path)
+  (tmp_path / "main.c").write_text(STREAM)
+  exe = tmp_path / "est"
+  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
+                  str(exe)], check=True, capture_output=True, text=True)
+  text = "\n".join(f"{s} " + " ".join(str(int(v)) for v in row)
+                   for s, row in zip(labels, counts))
+  run = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
+  return np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()]), report
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.parametrize("kind", ["LS", "LSANN", "GRU"])
+def test_the_c_export_carries_the_front_end_and_the_recurrent_state(tmp_path, kind):
+  """Tare, high-passes, differences and the GRU's state, streamed sample by sample in C
+  (float32) with a reset at each recording: equal to `predict` over whole recordings within
+  1e-5 of each output's scale, and the tares happen where Python's do."""
+  from calibrate import recurrent
+  rng = np.random.default_rng(6)
+  counts, f, labels, _ = _drifting(rng, n=12_000, segments=3)
+  counts = np.round(counts)  # ADC counts
+  extra = {"LSANN": {"config": mlp.LMConfig(hidden=4, epochs=5)},
+           "GRU": {"gru": recurrent.GRUConfig(hidden=4, steps=20, check=10)}}.get(kind, {})
+  est = estimators.fit_temporal(kind, counts, f, DT, segments=labels, taus=(0.05, 1.0),
+                                tare=temporal.Tare(threshold=5.0), seed=1, **extra)
+  assert est.memory.offsets(counts, labels)[1].any()  # the tare acts in this recording
+  got, report = _run_in_c(est, counts, labels, tmp_path)
+  want = est.predict(counts, segments=labels)
+  assert got.shape == want.shape
+  assert np.max(np.abs(got - want) / np.abs(want).max(axis=0)) < 1e-5
+  assert report.tanh == {"LS": 0, "LSANN": 4, "GRU": 12}[kind]
+  assert "void estimate_reset(void);" in (tmp_path / "estimator.h").read_text()
+
+
+def test_the_c_export_refuses_a_tare_by_contact_flag(tmp_path):
   from calibrate import cexport
   rng = np.random.default_rng(6)
-  counts, f, labels, _ = _drifting(rng, n=4000, segments=2)
-  est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.3,))
-  with pytest.raises(errors.SettingError, match="temporal front end"):
+  counts, f, labels, free = _drifting(rng, n=4000, segments=2)
+  est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, segments=labels, taus=(),
+                                tare=temporal.Tare(), contact=~free)
+  with pytest.raises(errors.SettingError, match="contact flag"):
     cexport.write(est, tmp_path)
   assert not list(tmp_path.iterdir())
 
@@ -193,7 +253,79 @@ def test_the_command_line_fits_and_uses_a_front_end(tmp_path, capsys):
   assert cli.main(["predict", str(tmp_path / "memory.npz"), "--csv",
                    str(examples / "test.csv"), "--out", str(tmp_path / "p.csv")]) == 0
   capsys.readouterr()
-  assert cli.main(["export", str(tmp_path / "memory.npz"), "--c", str(tmp_path / "c")]) == 2
-  assert "temporal front end" in capsys.readouterr().err
+  assert cli.main(["export", str(tmp_path / "memory.npz"), "--c", str(tmp_path / "c")]) == 0
+  assert "estimate_reset" in (tmp_path / "c" / "estimator.h").read_text()
+  gru = tmp_path / "gru.npz"
+  assert cli.main(["fit", *common[:6], "--method", "gru", "--hidden", "4", "--epochs", "100",
+                   "--folds", "2", "--no-progress", "--out", str(gru)]) == 0
+  assert "Adam steps" in capsys.readouterr().out
+  back = estimators.Estimator.load(gru)
+  assert back.kind is estimators.Kind.GRU and back.rnn.hidden == 4
+  assert back.info.interval_abs is not None  # its interval from held-out folds of the GRU
+  assert cli.main(["export", str(gru), "--c", str(tmp_path / "gru_c")]) == 0
   assert cli.main(["compare", *common[:6], "--history", "auto"]) == 2
   assert "compares static estimators" in capsys.readouterr().err
+
+
+def test_training_windows_never_cross_a_recording_and_score_each_sample_once():
+  from calibrate import recurrent
+  runs = [(0, 1000), (1000, 1100), (1100, 3717)]
+  select = np.ones(3717, bool)
+  select[1500:1600] = False
+  spans = recurrent.windows(runs, select, 256, 64)
+  scored = np.zeros(3717, int)
+  for lo, hi, first in spans:
+    assert hi - lo <= 256 and any(a <= lo and hi <= b for a, b in runs)
+    assert first == lo or first == lo + 64
+    scored[first:hi] += 1
+  assert (scored[select] == 1).all() and (scored == 1).sum() >= select.sum()
+
+
+def _hysteretic(rng, segments=10, n=1500):
+  """Counts with memory a static map cannot undo: c = f - 0.3 LP_0.2s(f), squared and
+  crossed; forces smooth random sweeps, each recording from rest."""
+  xs, ys, labels = [], [], []
+  a = np.exp(-DT / 0.2)
+  for s in range(segments):
+    f = np.sin(np.linspace(0, 6, n))[:, None] * rng.uniform(1, 3, 2) \
+        + np.cumsum(rng.normal(0, 0.05, (n, 2)), axis=0)
+    lp = signal.lfilter([1 - a], [1, -a], f, axis=0, zi=a * f[:1])[0]
+    c = f - 0.3 * lp
+    xs.append(np.c_[c, 0.1 * c ** 2, f[:, :1] * f[:, 1:]])
+    ys.append(f)
+    labels.append(np.full(n, s))
+  return np.concatenate(xs), np.concatenate(ys), np.concatenate(labels)
+
+
+def test_the_recurrent_estimator_learns_a_memory_the_static_map_cannot():
+  """On held-out recordings of a nonlinear system with a relaxation, LS on the counts alone
+  is off by ~16 % of each force's spread; LS plus the GRU's residual lowers that by a tenth
+  or more (measured 0.157/0.182 -> 0.138/0.131). Saved and loaded, it predicts the same
+  bytes; fitted again with the seed, it gives the same bytes."""
+  from calibrate import recurrent
+  rng = np.random.default_rng(0)
+  x, f, labels = _hysteretic(rng)
+  tr = labels < 7
+  fit = lambda: estimators.fit_temporal(  # noqa: E731
+      "GRU", x[tr], f[tr], DT, segments=labels[tr], taus=(), differences=False, seed=1,
+      gru=recurrent.GRUConfig(hidden=8, steps=1000))
+  est = fit()
+  ls = estimators.fit_temporal("LS", x[tr], f[tr], DT, segments=labels[tr], taus=(),
+                               differences=False)
+
+  def err(e):
+    with __import__("warnings").catch_warnings():
+      __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
+      p = e.predict(x[~tr], segments=labels[~tr])
+    return np.sqrt(np.mean((p - f[~tr]) ** 2, axis=0)) / f[~tr].std(axis=0)
+  assert (err(est) < 0.9 * err(ls)).all(), (err(est), err(ls))
+  assert est.training.best_epoch > 0 and est.info.settings["method"] == "GRU"
+  import tempfile
+  with tempfile.TemporaryDirectory() as d:
+    est.save(d + "/gru.npz")
+    back = estimators.Estimator.load(d + "/gru.npz")
+  with __import__("warnings").catch_warnings():
+    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
+    a = est.predict(x[~tr], segments=labels[~tr])
+    assert back.predict(x[~tr], segments=labels[~tr]).tobytes() == a.tobytes()
+    assert fit().predict(x[~tr], segments=labels[~tr]).tobytes() == a.tobytes()
