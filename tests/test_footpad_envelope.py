@@ -97,10 +97,6 @@ def test_the_report_finds_the_envelope_and_the_parameter_each_metric_follows(tmp
 
 # the ranged parameters that size a history effect (a reading that depends on the path the
 # load took): stick-slip, relaxation strengths, hysteresis, drift
-HISTORY = ("params.static_friction_ratio", "prony.g1", "prony.g2", "adc.hysteresis",
-           "adc.drift_offset", "adc.drift_gain")
-
-
 @pytest.fixture(scope="module")
 def corners():
   """The quick protocol at the two corners of the sourced ranges: every history parameter at
@@ -111,9 +107,8 @@ def corners():
   from benchmarks import executors
   from sim.footpad import scene as scene_lib
   base = scene_lib.FootpadScene.config(protocol.base(True, 0))
-  points = [{"base": base, "seeds": [1, 2, 3], "values": envelope.design_values(
-      np.array([level if name in HISTORY else 0.5 for name in envelope.ranges()]))}
-      for level in (0.0, 1.0 - 1e-12)]
+  points = [{"base": base, "seeds": [1, 2, 3], "values": envelope.corner(level)}
+            for level in (0.0, 1.0)]
   out, failures = executors.sweep(envelope.evaluate, points, executors.ExecutorSpec(workers=2))
   assert not failures, failures[0].error
   return out

@@ -56,6 +56,19 @@ def ranges() -> dict[str, tuple[float, float, bool]]:
   return out
 
 
+# the swept settings whose effect depends on the load's past: the envelope's corners set
+# them all low or all high, the others at their middles
+HISTORY_PARAMETERS = ("params.static_friction_ratio", "prony.g1", "prony.g2", "adc.hysteresis",
+                      "adc.drift_offset", "adc.drift_gain")
+
+
+def corner(level: float) -> dict[str, float]:
+  """The design at a corner: every history parameter at `level` of its range (0 low, 1
+  high), the other swept parameters at their middles."""
+  return design_values(np.array([min(level, 1 - 1e-12) if name in HISTORY_PARAMETERS else 0.5
+                                 for name in ranges()]))
+
+
 ENVELOPE_EFFECTS = ("pressure_friction", "stick_slip", "viscoelastic", "hysteresis", "thermal_drift")
 SHEAR_R2 = "mean shear R2 % of the networks (X and Y; LSANN and NN-only)"
 LS_STROKES = "LS stroke NRMSE % (X and Y, fitted on the Z presses and X/Y strokes)"

@@ -4,19 +4,22 @@ The paper's protocol (LS on the Z presses and X/Y strokes; LSANN's network and N
 Asterisk path; tested on Testing Paths 1 and 2) with every calibrator twice: static, as in
 the paper, and behind a temporal front end (`calibrate.temporal`): drift tracking (each die
 re-zeroed in the unloaded intervals that start and end every stroke, read from the LS map's
-normal force: `TARE`) and history features (each die's high-pass at time constants chosen on
-held-out episodes of the strokes, and its first difference, each kept only where it lowers
-LS's held-out error). The history features reach the LS stage; the networks read the tared
-counts (`estimators.fit_temporal`'s network_history says why). The filters run over each
-whole episode, approach included, and are scored on the samples on the path, as the static
-fits.
+normal force: `tare_rule`) and history features (each die's high-pass at time constants
+chosen on held-out episodes of the strokes, and its first difference, each kept only where
+it lowers LS's held-out error). The history features reach the LS stage; the networks read
+the tared counts (`estimators.fit_temporal`'s network_history says why). GRU+memory is the
+same LS stage plus a recurrent network (`calibrate.recurrent`) fitted on the Asterisk
+episodes to its residual, stopped on held-out blocks of them. The filters and the GRU run
+over each whole episode, approach included, and are scored on the samples on the path, as
+the static fits.
 
 Printed: test NRMSE and R2 per axis for each method (networks: median over `SEEDS` seeds),
-training seconds, the tare's false-tare rate (the share of the samples the tares read as
-unloaded while the plate read more than 1 N); the floor, static LSANN with every history effect off (what a static
-map reaches without history); then the ablation: each history effect alone over that floor,
-static LSANN against LSANN with the front end, and the share of the error the effect adds
-that the front end recovers.
+training seconds, the C export's cost on the LPC1768 model (`calibrate.cexport`), the tare's
+false-tare rate (the share of the samples the tares read as unloaded while the plate read
+more than 1 N); the floor, static LS and LSANN with every history effect off (what a static
+map reaches without history); the ablation: each history effect alone over that floor, each
+static method against its temporal counterpart, and the share of the error the effect adds
+that the front end recovers; and the envelope's two corners (`envelope.corner`).
 """
 
 from __future__ import annotations
@@ -68,6 +71,16 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
             for ax in AXES}
 
   K = estimators.Kind
+
+  def c_cost(est) -> dict:  # the C export's cost per estimate on the LPC1768 model
+    import tempfile
+    from calibrate import cexport
+    with tempfile.TemporaryDirectory() as d:
+      r = cexport.write(est, d)
+    loop = r.budget.clock_hz / r.budget.rate_hz
+    return {"cycles": list(r.cycles), "budget_pct": [100 * c / loop for c in r.cycles],
+            "multiply_adds": r.multiply_adds, "tanh": r.tanh}
+
   for method in methods:
     t0 = time.perf_counter()
     if method == "static":
@@ -84,7 +97,8 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
           memory=ls.memory, linear_fit=ls.linear, seed=seed)
     name = "" if method == "static" else "+memory"
     if "LS" in kinds:
-      out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0}
+      out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0,
+                          "c": c_cost(ls)}
     for kind in ("LSANN", "NN", "GRU"):
       if kind not in kinds or (kind == "GRU" and method == "static"):
         continue
@@ -94,7 +108,8 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
         est = fit_net(K(kind), seed)
         secs.append(time.perf_counter() - t1)
         runs.append(score(predict(est)))
-      out[kind + name] = {"test": median(runs), "seconds": float(np.median(secs))}
+      out[kind + name] = {"test": median(runs), "seconds": float(np.median(secs)),
+                          "c": c_cost(est)}
     if method != "static":
       for m in [k for k in out if k.endswith(name)]:
         out[m]["taus"] = list(ls.memory.taus)
@@ -106,10 +121,23 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
   return out
 
 
+# (static method, its temporal counterpart): GRU's is LSANN, LS plus a static network on
+# the residual where the GRU puts a recurrent one
+PAIRS = (("LS", "LS+memory"), ("LSANN", "LSANN+memory"), ("LSANN", "GRU+memory"))
+ADDS_NOTHING = 0.1  # NRMSE points: an effect adding less over the floor has nothing to recover
+
+
+def _shear(res) -> float:
+  """Mean of the X and Y test NRMSE %."""
+  return float(np.mean([res["test"][ax]["nrmse_pct"] for ax in ("X", "Y")]))
+
+
 def _row(ctx, name, res):
   t = res["test"]
   cells = "  ".join(f"{ax} {t[ax]['nrmse_pct']:6.2f} {t[ax]['r2_pct']:7.2f}" for ax in AXES)
-  ctx.print(f"  {name:14s} {cells}   {res['seconds']:7.1f} s")
+  c = res.get("c")
+  cost = f"   C {c['budget_pct'][0]:4.0f}-{c['budget_pct'][1]:3.0f} %" if c else ""
+  ctx.print(f"  {name:14s} {cells}   {res['seconds']:7.1f} s{cost}")
 
 
 @register("temporal_calibrators", "footpad: static calibrators against the same behind "
@@ -123,7 +151,8 @@ def run(ctx) -> dict:
   train, test = recs["train"][0], recs["test"][0]
   res = evaluate(train, test, seeds)
   ctx.print(f"test NRMSE % and R2 % per axis (networks: median of {len(seeds)} seeds); "
-            f"training s")
+            f"training s; C export's cycles per estimate, % of a 1 kHz loop on the LPC1768 "
+            f"(96 MHz Cortex-M3, soft float)")
   for name, r in res.items():
     if name != "tare":
       _row(ctx, name, r)
@@ -135,34 +164,57 @@ def run(ctx) -> dict:
   plain = dataclasses.replace(base, effects=tuple(e for e in base.effects
                                                   if e not in HISTORY_EFFECTS))
   floor_recs = footpad.recordings(ctx, plain)
-  floor = evaluate(floor_recs["train"][0], floor_recs["test"][0], seeds, ("static",),
-                   ("LSANN",))["LSANN"]
+  floors = evaluate(floor_recs["train"][0], floor_recs["test"][0], seeds, ("static",),
+                    ("LS", "LSANN"))
+  floor = floors["LSANN"]
   _row(ctx, "LSANN, no hist", floor)
-  shear = {m: np.mean([res[m]["test"][ax]["nrmse_pct"] for ax in ("X", "Y")])
-           for m in res if m != "tare"}
-  floor_shear = np.mean([floor["test"][ax]["nrmse_pct"] for ax in ("X", "Y")])
-  ctx.print(f"shear NRMSE (mean of X, Y): static LSANN {shear['LSANN']:.2f} %, with memory "
-            f"{shear['LSANN+memory']:.2f} % ({1 - shear['LSANN+memory'] / shear['LSANN']:.0%} "
-            f"lower); floor without history {floor_shear:.2f} % (memory at "
-            f"{shear['LSANN+memory'] / floor_shear:.2f}x it)")
+  shear = {m: _shear(res[m]) for m in res if m != "tare"}
+  floor_shear = _shear(floor)
+  best = min((m for m in shear if m.endswith("+memory")), key=shear.get)
+  ctx.print(f"shear NRMSE (mean of X, Y): static LSANN {shear['LSANN']:.2f} %, best with memory "
+            f"{best} {shear[best]:.2f} % ({1 - shear[best] / shear['LSANN']:.0%} lower); "
+            f"floor without history {floor_shear:.2f} % (the best at "
+            f"{shear[best] / floor_shear:.2f}x it)")
   # the ablation: each history effect alone over the floor
   ablation = {}
-  ctx.print("each history effect alone: shear NRMSE % (mean of X, Y) of LSANN, static and with "
-            "memory; share of the error the effect adds that memory recovers")
+  ctx.print("each history effect alone: shear NRMSE % (mean of X, Y) static -> with memory, "
+            "and the share of the error the effect adds over the static floor that memory "
+            "recovers (of how many points)")
   for effect in (e for e in HISTORY_EFFECTS if e in base.effects):
     one = dataclasses.replace(plain, effects=plain.effects + (effect,))
     r = footpad.recordings(ctx, one)
-    both = evaluate(r["train"][0], r["test"][0], seeds[:1], kinds=("LSANN",))
-    s = {m: float(np.mean([both[m]["test"][ax]["nrmse_pct"] for ax in ("X", "Y")]))
-         for m in ("LSANN", "LSANN+memory")}
-    added = s["LSANN"] - floor_shear
-    recovered = (s["LSANN"] - s["LSANN+memory"]) / added if added > 0 else float("nan")
-    ablation[effect] = {"static": s["LSANN"], "memory": s["LSANN+memory"], "added": added,
-                        "recovered_share": recovered, "taus": both["tare"]["taus"]}
-    ctx.print(f"  {effect:14s} static {s['LSANN']:6.2f}  memory {s['LSANN+memory']:6.2f}  "
-              f"added {added:+6.2f}  recovered {recovered:6.0%}")
+    both = evaluate(r["train"][0], r["test"][0], seeds[:1], kinds=("LS", "LSANN", "GRU"))
+    ablation[effect] = {}
+    cells = []
+    for static, memory in PAIRS:
+      s0, s1 = _shear(both[static]), _shear(both[memory])
+      added = s0 - _shear(floors[static])
+      recovered = (s0 - s1) / added if added > ADDS_NOTHING else float("nan")
+      ablation[effect][memory] = {"static": s0, "memory": s1, "added": added,
+                                  "recovered_share": recovered}
+      share = "adds nothing" if np.isnan(recovered) else f"{recovered:4.0%} of {added:4.2f}"
+      cells.append(f"{static} {s0:5.2f} -> {memory} {s1:5.2f} ({share})")
+    ablation[effect]["taus"] = both["tare"]["taus"]
+    ctx.print(f"  {effect:13s} " + "   ".join(cells))
+  # the envelope's corners: every history parameter at the low, then the high end of its
+  # sourced range
+  from benchmarks.footpad import envelope
+  corners = {}
+  ctx.print("the envelope's corners (every history parameter at its sourced low / high end): "
+            "shear NRMSE % static LSANN, LSANN+memory, GRU+memory; Z NRMSE %")
+  for name, level in (("least history", 0.0), ("most history", 1.0)):
+    scene = envelope.design_scene(base, envelope.corner(level))
+    r = footpad.recordings(ctx, scene)
+    got = evaluate(r["train"][0], r["test"][0], seeds[:1], kinds=("LSANN", "GRU"))
+    corners[name] = {m: got[m]["test"] for m in got if m != "tare"}
+    ctx.print(f"  {name:13s} " + "  ".join(
+        f"{m} {_shear(got[m]):5.2f} (Z {got[m]['test']['Z']['nrmse_pct']:4.2f})"
+        for m in ("LSANN", "LSANN+memory", "GRU+memory")))
   return {"results": {m: r["test"] for m, r in res.items() if m != "tare"},
           "seconds": {m: r["seconds"] for m, r in res.items() if m != "tare"},
+          "c_cost": {m: r["c"] for m, r in res.items() if m != "tare"},
+          "floors": {m: r["test"] for m, r in floors.items() if m != "tare"},
+          "corners": corners, "best_memory": best,
           "tare": tare, "floor": floor["test"], "shear_nrmse_pct": shear,
           "floor_shear_nrmse_pct": float(floor_shear), "ablation": ablation,
           "seeds": seeds, "effects": list(base.effects),
