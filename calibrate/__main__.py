@@ -111,6 +111,10 @@ def _parser() -> argparse.ArgumentParser:
   p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
   p.add_argument("--c", dest="c_dir", required=True, type=cli.path_arg,
                  help="folder for estimator.h and estimator.c")
+  p.add_argument("--fixed-point", action="store_true",
+                 help="gru: the recurrent network in Q16 integers (a tanh table), about a tenth "
+                      "of its soft-float cost on a Cortex-M3; its outputs then differ from "
+                      "predict by Q16's rounding, not float32's")
   p = sub.add_parser("example", help="write the example recordings (the simulated footpad)",
                      description="Copies the example recordings shipped with the package: the "
                                  "simulated footpad's quick protocol at seed 0, every 20th "
@@ -647,7 +651,11 @@ def export(args) -> int:
   from calibrate import cexport, estimators
   files.output_folder(args.c_dir, "--c")
   est = estimators.Estimator.load(args.estimator)
-  report = cexport.write(est, args.c_dir)
+  if args.fixed_point and est.rnn is None:
+    raise errors.SettingError(f"--fixed-point writes a recurrent network in integers: "
+                              f"{args.estimator} is {est.kind.value}, which has none (fit "
+                              f"--method gru)")
+  report = cexport.write(est, args.c_dir, fixed_point=args.fixed_point)
   print(report.text())
   return 0
 

@@ -404,6 +404,9 @@ class _Writer:
       now = "tare_now[i]"
     else:
       now = "0.0f"
+    if not (t or mem.differences):  # the tared counts alone
+      self.macs += c
+      return lines + [f"  for (int i = 0; i < {c}; ++i) x[i] = {raw}[i] - {now};"]
     self.state += [f"static float mem_raw[{c}], mem_tare[{c}];", "static int mem_fresh = 1;"]
     self.resets.append("  mem_fresh = 1;")
     self.macs += 2 * c  # the step and the tared value of each channel
@@ -415,7 +418,7 @@ class _Writer:
     # high-passes and differences in float32 lose nothing to the counts' level (~2,000)
     lines += [f"  for (int i = 0; i < {c}; ++i) {{",
               f"    float dx = mem_fresh ? 0.0f : ({raw}[i] - mem_raw[i]) - ({now} - "
-              "mem_tare[i]);",
+                   "mem_tare[i]);",
               f"    x[i] = {raw}[i] - {now};"]
     if t:  # x - LP_tau(x) kept directly: hp = a (hp + dx), 0 at a recording's start
       lines += [f"    for (int k = 0; k < {t}; ++k) {{",
@@ -674,3 +677,69 @@ def write(est, out_dir, budget: Budget = Budget(), fixed_point: bool = False) ->
   return Report(macs, w.tanh, w.flash, stack, cycles, budget,
                 (str(out_dir / "estimator.h"), str(out_dir / "estimator.c")),
                 w.fixed_macs, w.fixed_tanh)
+
+
+HOST_HARNESS = r"""
+#include <stdio.h>
+#include "estimator.h"
+int main(void) {  /* lines "label inputs...": estimate_reset() where the label changes */
+  long label, last = -1;
+  while (scanf("%ld", &label) == 1) {
+    float out[ESTIMATOR_OUTPUTS];
+    double v;
+    ESTIMATOR_INPUT_TYPE in[ESTIMATOR_INPUTS];
+    for (int i = 0; i < ESTIMATOR_INPUTS; ++i) {
+      if (scanf("%lf", &v) != 1) return 1;
+      in[i] = (ESTIMATOR_INPUT_TYPE)v;
+    }
+    RESET_IF_NEW
+    last = label;
+    estimate(in, out);
+    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
+    printf("\n");
+  }
+  (void)last;
+  return 0;
+}
+"""
+
+
+def run_on_host(est, counts: np.ndarray, segments: Optional[np.ndarray] = None,
+                fixed_point: bool = False, cc: Optional[str] = None) -> np.ndarray:
+  """(N, A) what the exported C computes over `counts` (N, C) in time order, compiled for
+  this machine (`cc`, default $CC, cc, gcc or clang; C99 with every warning an error) and
+  reset at each new `segments` label: the export checked against `predict` on a recording.
+
+  Raises:
+    errors.SettingError when no C compiler is found.
+  """
+  import os
+  import shutil
+  import subprocess
+  import tempfile
+  cc = cc or os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc") or \
+      shutil.which("clang")
+  if cc is None:
+    raise errors.SettingError("no C compiler found to run the export on (set CC, or install "
+                              "gcc)")
+  counts = np.asarray(counts, float)
+  labels = np.zeros(len(counts), int) if segments is None else np.asarray(segments)
+  with tempfile.TemporaryDirectory() as d:
+    d = pathlib.Path(d)
+    write(est, d, fixed_point=fixed_point)
+    integer = integer_inputs(est)
+    harness = HOST_HARNESS.replace("ESTIMATOR_INPUT_TYPE", "uint16_t" if integer else "float")
+    harness = harness.replace("RESET_IF_NEW", "if (label != last) estimate_reset();"
+                              if est.memory is not None else "")
+    (d / "main.c").write_text(harness)
+    built = subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
+                            str(d / "estimator.c"), str(d / "main.c"), "-lm", "-o",
+                            str(d / "est")], capture_output=True, text=True)
+    if built.returncode:  # the export's own bug: the compiler says where
+      raise RuntimeError(f"the exported C did not compile with {cc}:\n{built.stderr[-3000:]}")
+    codes = np.concatenate([[0], np.cumsum(labels[1:] != labels[:-1])])  # a new one: +1
+    text = "\n".join(f"{k} " + " ".join(repr(float(v)) for v in row)
+                     for k, row in zip(codes, counts))
+    run = subprocess.run([str(d / "est")], input=text, capture_output=True, text=True,
+                         check=True)
+  return np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])

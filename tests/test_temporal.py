@@ -159,39 +159,13 @@ def test_bad_temporal_input_names_the_field():
 
 
 CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
-STREAM = r"""
-#include <stdio.h>
-#include "estimator.h"
-int main(void) {  /* lines "label counts...": estimate_reset() where the label changes */
-  long label, last = -1;
-  while (scanf("%ld", &label) == 1) {
-    uint16_t c[ESTIMATOR_INPUTS]; float out[ESTIMATOR_OUTPUTS]; unsigned v;
-    for (int i = 0; i < ESTIMATOR_INPUTS; ++i) { if (scanf("%u", &v) != 1) return 1; c[i] = (uint16_t)v; }
-    if (label != last) estimate_reset();
-    last = label;
-    estimate(c, out);
-    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
-    printf("\n");
-  }
-  return 0;
-}
-"""
 
 
-def _run_in_c(est, counts, labels, tmp_path):
-  """The estimator exported, compiled with warnings as errors and run over the recording."""
-  import subprocess
+def _run_in_c(est, counts, labels, tmp_path, fixed=False):
+  """(what the exported C computes over the recording, the export's report)."""
   from calibrate import cexport
-  report = cexport.write(est, tmp_path)
-  (tmp_path / "main.c").write_text(STREAM)
-  exe = tmp_path / "est"
-  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
-                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
-                  str(exe)], check=True, capture_output=True, text=True)
-  text = "\n".join(f"{s} " + " ".join(str(int(v)) for v in row)
-                   for s, row in zip(labels, counts))
-  run = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
-  return np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()]), report
+  report = cexport.write(est, tmp_path, fixed_point=fixed)
+  return cexport.run_on_host(est, counts, labels, fixed_point=fixed), report
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
@@ -366,12 +340,7 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   est = estimators.fit_temporal("GRU", counts, f, DT, segments=labels, taus=(0.05,), seed=1,
                                 tare=temporal.Tare(threshold=5.0),
                                 gru=recurrent.GRUConfig(hidden=8, steps=300))
-  write = cexport.write
-  try:
-    cexport.write = lambda e, d: write(e, d, fixed_point=fixed)
-    got, report = _run_in_c(est, counts, labels, tmp_path)
-  finally:
-    cexport.write = write
+  got, report = _run_in_c(est, counts, labels, tmp_path, fixed)
   want = est.predict(counts, segments=labels)
   assert np.max(np.abs(got - want) / np.abs(want).max(axis=0)) < (1e-3 if fixed else 1e-5)
   assert (report.fixed_tanh, report.tanh) == ((24, 0) if fixed else (0, 24))

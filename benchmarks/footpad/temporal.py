@@ -56,6 +56,7 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
   "taus"}} and the tare's figures, for the protocol's recordings `train` and `test`."""
   from calibrate import estimators, metrics
   from sim.footpad import protocol
+  from util import errors
   dt = float(train.meta["config"]["params"]["timestep"])
   y = train.wrench[:, :3]
   ls_sel, net_sel = train.on_path_mask(*protocol.LS_PATHS), train.on_path_mask("asterisk")
@@ -72,14 +73,27 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
 
   K = estimators.Kind
 
-  def c_cost(est) -> dict:  # the C export's cost per estimate on the LPC1768 model
+  def c_cost(est, fixed_point=False) -> dict:
+    """The C export's cost per estimate on the LPC1768 model; a recurrent network's also in
+    fixed point, with how far that C (compiled here, when a compiler is) strays from
+    `predict` over the test recording, per axis, relative to its largest output."""
     import tempfile
     from calibrate import cexport
     with tempfile.TemporaryDirectory() as d:
-      r = cexport.write(est, d)
+      r = cexport.write(est, d, fixed_point=fixed_point)
     loop = r.budget.clock_hz / r.budget.rate_hz
-    return {"cycles": list(r.cycles), "budget_pct": [100 * c / loop for c in r.cycles],
-            "multiply_adds": r.multiply_adds, "tanh": r.tanh}
+    out = {"cycles": list(r.cycles), "budget_pct": [100 * c / loop for c in r.cycles],
+           "multiply_adds": r.multiply_adds, "tanh": r.tanh}
+    if est.rnn is not None and not fixed_point:
+      out["fixed_point"] = c_cost(est, True)
+      try:
+        got = cexport.run_on_host(est, test.counts, test.episode, fixed_point=True)
+      except errors.SettingError:  # no compiler here: the cost stands, the error unmeasured
+        return out
+      want = est.predict(test.counts, segments=test.episode)
+      out["fixed_point"]["max_error_of_scale"] = (
+          np.abs(got - want)[test_sel].max(axis=0) / np.abs(want[test_sel]).max(axis=0)).tolist()
+    return out
 
   for method in methods:
     t0 = time.perf_counter()
@@ -137,6 +151,11 @@ def _row(ctx, name, res):
   cells = "  ".join(f"{ax} {t[ax]['nrmse_pct']:6.2f} {t[ax]['r2_pct']:7.2f}" for ax in AXES)
   c = res.get("c")
   cost = f"   C {c['budget_pct'][0]:4.0f}-{c['budget_pct'][1]:3.0f} %" if c else ""
+  if c and "fixed_point" in c:
+    fx = c["fixed_point"]
+    err = fx.get("max_error_of_scale")
+    cost += (f" (fixed point {fx['budget_pct'][0]:.0f}-{fx['budget_pct'][1]:.0f} %"
+             + (f", off predict by <= {max(err):.1e} of scale)" if err else ")"))
   ctx.print(f"  {name:14s} {cells}   {res['seconds']:7.1f} s{cost}")
 
 
