@@ -133,7 +133,8 @@ class _Writer:
     self.tanh = 0
     self.stack = 0
     self.state: list[str] = []  # static variables a temporal estimator carries between calls
-    self.resets: list[str] = []  # the lines of estimate_reset() that set them to a start
+    self.resets: list[str] = []  # estimate_restart(): a segment's (episode's) start
+    self.session_resets: list[str] = []  # estimate_reset() adds these: a session's start
 
   def array(self, name: str, a: np.ndarray) -> str:
     a = np.asarray(a, np.float64)
@@ -370,30 +371,32 @@ class _Writer:
       dmean, ref = self.array("TARE_DET_MEAN", d.mean), self.array("TARE_REF", mem.reference)
       self.state += [f"static float tare_judge[{c}], tare_now[{c}], tare_sum[{c}];",
                      f"static float tare_ring[{hold}][{c}];", "static int tare_run, tare_n;"]
-      self.resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] = "
-                      f"tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
+      self.session_resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] "
+                              f"= tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
       self.macs += 3 * c + 2
       lines += [
           "  { /* drift tracking: unloaded while the detector's normal force stays within",
-          f"     * +-{tr.threshold:g} for {2 * hold} samples; then the offset is the mean of the",
-          f"     * interval's counts up to {hold} samples back, less their level at no load */",
+          f"     * +-{tr.threshold:g} for {2 * hold + 1} samples; then the offset is the mean of "
+          "the", f"     * interval's counts from {hold} samples after its start to {hold} "
+          "samples back,", "     * less their level at no load */",
           "    for (int pass = 0; pass < 2; ++pass) {",
           f"      float fz = {_literal(d.bias[ax])};",
           f"      for (int i = 0; i < {c}; ++i) fz += {unit}[i] * ({raw}[i] - {dmean}[i] - "
           "tare_judge[i]);",
           f"      if (fabsf(fz) < {_literal(tr.threshold)}) {{",
           f"        float *slot = tare_ring[tare_run % {hold}];",
-          f"        if (tare_run >= {hold}) {{",
+          f"        if (tare_run >= {2 * hold}) {{  /* the sample {hold} back, if {hold} "
+          "into the interval */",
           f"          for (int i = 0; i < {c}; ++i) tare_sum[i] += slot[i];",
           "          ++tare_n;",
           "        }",
           f"        for (int i = 0; i < {c}; ++i) slot[i] = {raw}[i] - {ref}[i];",
           "        ++tare_run;",
-          f"        if (tare_run >= {2 * hold})",
+          "        if (tare_n > 0)",
           f"          for (int i = 0; i < {c}; ++i) tare_now[i] = tare_sum[i] / (float)tare_n;",
           "        break;",
           "      }",
-          f"      int ended = tare_run >= {2 * hold};",
+          "      int ended = tare_n > 0;",
           f"      tare_run = tare_n = 0;",
           f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
           "      if (!ended) break;",
@@ -643,12 +646,14 @@ def write(est, out_dir, budget: Budget = Budget(), fixed_point: bool = False) ->
       + [f"#define ESTIMATOR_OUT_{n} {j}" for j, n in enumerate(identifiers(names))] + ["",
       f"void estimate({arg}, float out[ESTIMATOR_OUTPUTS]);", ""]
       + (["/* A temporal estimator: estimate() reads the recording's past (drift tracking,",
-          " * filters" + (", the recurrent network's state" if w.resets and any(
-              "_GRU_H" in r for r in w.resets) else "") + "), so call it on every sample,",
-          f" * in order, every {mem.dt:g} s; call estimate_reset() at the start of each "
-          "recording", " * (power-up, a new episode). */",
+          " * filters, a recurrent network's state), so call it on every sample, in order,",
+          f" * every {mem.dt:g} s. estimate_reset(): a new session (power-up; the tare's",
+          " * offset back to zero). estimate_restart(): a new episode of the same session",
+          " * (the filters and the recurrent state start afresh; the tare's offset carries",
+          " * on, as the drift does). */",
           f"#define ESTIMATOR_SAMPLE_SECONDS {_literal(mem.dt)}",
-          "void estimate_reset(void);", ""] if w.resets else [])
+          "void estimate_reset(void);", "void estimate_restart(void);", ""]
+         if mem is not None else [])
       + tare_h + ["#endif", ""])
   name = "counts" if counts else "inputs"
   first = (" - tare_offset[i];" if tare else ";")
@@ -659,7 +664,9 @@ def write(est, out_dir, budget: Budget = Budget(), fixed_point: bool = False) ->
     inputs_code = [f"  float raw[{c}], x[{width}];",
                    f"  for (int i = 0; i < {c}; ++i) raw[i] = (float){name}[i]" + first
                    ] + front
-  reset = ["", "void estimate_reset(void) {"] + w.resets + ["}"] if w.resets else []
+  reset = ["", "void estimate_restart(void) {"] + w.resets + ["}", "",
+           "void estimate_reset(void) {"] + w.session_resets + ["  estimate_restart();", "}"] \
+      if mem is not None else []
   source = "\n".join(
       ['#include "estimator.h"', "#include <math.h>", ""] + w.arrays + w.state + tare_c
       + reset + ["",
@@ -682,9 +689,10 @@ def write(est, out_dir, budget: Budget = Budget(), fixed_point: bool = False) ->
 HOST_HARNESS = r"""
 #include <stdio.h>
 #include "estimator.h"
-int main(void) {  /* lines "label inputs...": estimate_reset() where the label changes */
-  long label, last = -1;
-  while (scanf("%ld", &label) == 1) {
+int main(void) {  /* lines "session segment inputs...": a new session resets, a new
+                     segment restarts */
+  long session, label, last_session = -1, last = -1;
+  while (scanf("%ld %ld", &session, &label) == 2) {
     float out[ESTIMATOR_OUTPUTS];
     double v;
     ESTIMATOR_INPUT_TYPE in[ESTIMATOR_INPUTS];
@@ -694,21 +702,26 @@ int main(void) {  /* lines "label inputs...": estimate_reset() where the label c
     }
     RESET_IF_NEW
     last = label;
+    last_session = session;
     estimate(in, out);
     for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
     printf("\n");
   }
   (void)last;
+  (void)last_session;
   return 0;
 }
 """
 
 
 def run_on_host(est, counts: np.ndarray, segments: Optional[np.ndarray] = None,
-                fixed_point: bool = False, cc: Optional[str] = None) -> np.ndarray:
+                fixed_point: bool = False, cc: Optional[str] = None,
+                sessions: Optional[np.ndarray] = None) -> np.ndarray:
   """(N, A) what the exported C computes over `counts` (N, C) in time order, compiled for
-  this machine (`cc`, default $CC, cc, gcc or clang; C99 with every warning an error) and
-  reset at each new `segments` label: the export checked against `predict` on a recording.
+  this machine (`cc`, default $CC, cc, gcc or clang; C99 with every warning an error),
+  restarted at each new `segments` label and reset at each new `sessions` label (None: at
+  each segment), as `predict` reads them: the export checked against `predict` on a
+  recording.
 
   Raises:
     errors.SettingError when no C compiler is found.
@@ -729,17 +742,20 @@ def run_on_host(est, counts: np.ndarray, segments: Optional[np.ndarray] = None,
     write(est, d, fixed_point=fixed_point)
     integer = integer_inputs(est)
     harness = HOST_HARNESS.replace("ESTIMATOR_INPUT_TYPE", "uint16_t" if integer else "float")
-    harness = harness.replace("RESET_IF_NEW", "if (label != last) estimate_reset();"
-                              if est.memory is not None else "")
+    harness = harness.replace(
+        "RESET_IF_NEW", "if (session != last_session) estimate_reset(); else if (label != "
+        "last) estimate_restart();" if est.memory is not None else "")
     (d / "main.c").write_text(harness)
     built = subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
                             str(d / "estimator.c"), str(d / "main.c"), "-lm", "-o",
                             str(d / "est")], capture_output=True, text=True)
     if built.returncode:  # the export's own bug: the compiler says where
       raise RuntimeError(f"the exported C did not compile with {cc}:\n{built.stderr[-3000:]}")
-    codes = np.concatenate([[0], np.cumsum(labels[1:] != labels[:-1])])  # a new one: +1
-    text = "\n".join(f"{k} " + " ".join(repr(float(v)) for v in row)
-                     for k, row in zip(codes, counts))
+    def codes(lab):  # +1 at each change of label
+      return np.concatenate([[0], np.cumsum(lab[1:] != lab[:-1])])
+    sess = codes(labels if sessions is None else np.asarray(sessions))
+    text = "\n".join(f"{a} {k} " + " ".join(repr(float(v)) for v in row)
+                     for a, k, row in zip(sess, codes(labels), counts))
     run = subprocess.run([str(d / "est")], input=text, capture_output=True, text=True,
                          check=True)
   return np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])

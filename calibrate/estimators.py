@@ -218,7 +218,8 @@ class Estimator:
     return x[:, :self.net.w1.shape[1] - 1]
 
   def predict(self, counts: np.ndarray, return_std: bool = False,
-              segments: Optional[np.ndarray] = None, contact: Optional[np.ndarray] = None):
+              segments: Optional[np.ndarray] = None, contact: Optional[np.ndarray] = None,
+              sessions: Optional[np.ndarray] = None):
     """(N, A) forces (output units) from (N, C) counts.
 
     Warns (`OutOfRangeWarning`, one warning naming the share of samples and the channels)
@@ -229,13 +230,14 @@ class Estimator:
     An estimator with a temporal front end (`memory`) reads the counts as recordings in time
     order: `segments` (N,) labels each sample's recording (None: one recording; its filters
     and tares start afresh at each change of label), `contact` (N,) an optional contact flag
-    for its tare. A static estimator ignores both.
+    for its tare, `sessions` (N,) the runs of segments its tare carries through
+    (`calibrate.temporal.Memory.features`). A static estimator ignores them.
     """
     counts = linear.check_array(counts, "counts", self.n_inputs)
     self._check_range(counts)
     starts = None
     if self.memory is not None:
-      counts = self.memory.features(counts, segments, contact)
+      counts = self.memory.features(counts, segments, contact, sessions)
       starts = recurrent.starts(segments, len(counts))
     mean, spread = self._mean_spread(counts, starts)
     if not return_std:
@@ -825,7 +827,7 @@ TAU_CANDIDATES = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 
 def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, *,
                  segments: Optional[np.ndarray] = None, select: Optional[np.ndarray] = None,
-                 contact: Optional[np.ndarray] = None,
+                 contact: Optional[np.ndarray] = None, sessions: Optional[np.ndarray] = None,
                  taus: Optional[Sequence[float]] = None,
                  candidates: Sequence[float] = TAU_CANDIDATES, max_taus: int = 3,
                  differences: bool = True, tare: Optional[temporal.Tare] = None,
@@ -845,6 +847,8 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
       changes, and the time constants are chosen holding out whole segments.
     select: (N,) bool, the samples to fit on (None: all), e.g. the paper's on-path samples.
     contact: (N,) bool contact flag for the tare (None: a linear map of the counts decides).
+    sessions: (N,) labels of the runs of segments read without a reset, through which the
+      tare's offset carries (None: each segment its own session).
     taus: the high-pass features' time constants, s; None: chosen from `candidates` by
       grouped cross-validation of LS over `folds` folds of the segments (greedy, up to
       `max_taus`, each kept only if it lowers the held-out error by 1 % or more), and the
@@ -881,8 +885,8 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
     if memory.channels != c:
       raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
                              f"have {c}")
-    return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                       network_history, folds, kwargs, gru)
+    return _fit_behind(memory, kind, counts, forces, segments, select, (contact, sessions),
+                       names, seed, network_history, folds, kwargs, gru)
   detector = reference = None
   if tare is not None:
     tare.validate()
@@ -894,33 +898,34 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
       detector = linear.fit_linear(counts[select], forces[select])
       probe = temporal.Memory(c, dt, tare=tare, detector=detector, reference=np.zeros(c))
       # with no offset yet, the first unloaded interval of each recording marks samples free
-      free = probe.offsets(counts, segments)[1]
+      free = probe.offsets(counts, segments, sessions=sessions)[1]
     else:
       free = ~np.asarray(contact, bool)
     reference = temporal.reference_counts(counts, free)
   base = temporal.Memory(c, dt, (), differences, tare, detector, reference)
   base.validate()
   if taus is None:
-    taus, differences = _choose_taus(base, counts, forces, segments, select, contact,
+    taus, differences = _choose_taus(base, counts, forces, segments, select,
+                                     (contact, sessions),
                                      tuple(candidates), max_taus, folds, seed)
   memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
                                differences=differences)
   memory.validate()
-  return _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
-                     network_history, folds, kwargs, gru)
+  return _fit_behind(memory, kind, counts, forces, segments, select, (contact, sessions),
+                     names, seed, network_history, folds, kwargs, gru)
 
 
-def _fit_behind(memory, kind, counts, forces, segments, select, contact, names, seed,
+def _fit_behind(memory, kind, counts, forces, segments, select, stream, names, seed,
                 network_history, folds, kwargs, gru=recurrent.GRUConfig()) -> Estimator:
   """The static stages of `kind` fitted on `memory`'s features of the selected samples
   (cross-validated over `folds` of the `groups` in kwargs, when there are any)."""
   c = counts.shape[1]
   units = tuple(kwargs.pop("input_units", None) or ("counts",) * c)
   if kind is Kind.GRU:
-    est = _fit_gru(memory, memory.features(counts, segments, contact), forces, segments,
+    est = _fit_gru(memory, memory.features(counts, segments, *stream), forces, segments,
                    select, memory.names(names), seed, folds, gru, kwargs)
   else:
-    x = memory.features(counts, segments, contact)[select]
+    x = memory.features(counts, segments, *stream)[select]
     est = fit(kind, x, forces[select], seed=seed, inputs=memory.names(names),
               net_inputs=None if network_history else c,
               folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
@@ -994,7 +999,7 @@ def _fit_gru(memory, x, forces, segments, select, names, seed, folds, config, kw
   return Estimator(Kind.GRU, linear=lin, rnn=net, training=res, info=info)
 
 
-def _choose_taus(base, counts, forces, segments, select, contact, candidates, max_taus,
+def _choose_taus(base, counts, forces, segments, select, stream, candidates, max_taus,
                  folds, seed) -> tuple[tuple[float, ...], bool]:
   """The time constants, greedily, that lower LS's error on held-out segments, and whether
   the first differences do (when `base.differences` allows them)."""
@@ -1009,7 +1014,7 @@ def _choose_taus(base, counts, forces, segments, select, contact, candidates, ma
   groups = splits.groups(int(select.sum()), "recordings", labels)
   parts = splits.folds(groups, min(folds, groups.count), seed)
   every = dataclasses.replace(base, taus=candidates)  # differences last, if allowed
-  feats = every.features(counts, segments, contact)[select]
+  feats = every.features(counts, segments, *stream)[select]
   y = forces[select]
   spread = np.maximum(y.std(axis=0), 1e-12)
   ch = base.channels

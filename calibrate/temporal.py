@@ -9,9 +9,10 @@ its own recording), and the static estimator is fitted on them:
 - drift tracking (`Tare`): each channel is re-zeroed during unloaded intervals, as users of
   an F/T sensor bias it before contact. A legged robot's foot is unloaded in every swing and
   the CNC lifts the pad between strokes. An interval is unloaded where a linear map of the
-  counts (`Memory.detector`) reads a normal force below `Tare.threshold` for 2 `Tare.hold`
+  counts (`Memory.detector`) reads a normal force below `Tare.threshold` for 2 `Tare.hold` + 1
   samples in a row, or where a given contact flag says so; through the interval the offset is
-  the running mean of its counts up to `hold` samples before, less their level at no load.
+  the running mean of its counts from `hold` samples after its start to `hold` samples
+  before, less their level at no load.
 - history features: each channel's distance from its exponentially filtered value at time
   constants `taus` (x - LP_tau(x), a high-pass), and its first difference. The inverse of a
   Prony relaxation is linear in such filters: for c = (g_inf + g1 tau s / (1 + tau s)) f,
@@ -19,7 +20,9 @@ its own recording), and the static estimator is fitted on them:
   g_inf, so LS on these features undoes relaxation at the time constants it is given.
 
 Recordings never share a filter state: `segments` labels each sample's recording (or
-episode), and every filter and tare starts afresh where the label changes.
+episode), and every filter starts afresh where the label changes; the tare's offset does
+too, unless `sessions` groups segments one sensor read without a reset (the episodes of one
+session, through which the drift carries on).
 """
 
 from __future__ import annotations
@@ -42,9 +45,10 @@ class Tare:
     threshold: a sample is unloaded while the detector's normal force (output `axis`, in
       its units, N) is within +-threshold of zero: above what the drift makes it read at no
       load, below the lightest load (the footpad: 10 N, `temporal_calibrators` says why).
-    hold: an interval must stay unloaded for 2 hold samples before the channels are
+    hold: an interval must stay unloaded for 2 hold + 1 samples before the channels are
       re-zeroed (a brief dip through zero while loaded is not an unloaded foot), and the tare
-      reads it `hold` samples late, so the samples of a load rising again never enter it.
+      reads it from `hold` samples after its start to `hold` samples late, so the samples of
+      a load still falling as it begins, or rising again as it ends, never enter it.
     axis: the detector's output that is the normal force.
   """
   threshold: float = 3.0
@@ -107,11 +111,14 @@ class Memory:
       self.tare.validate()
 
   def offsets(self, counts: np.ndarray, segments: Optional[np.ndarray] = None,
-              contact: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
+              contact: Optional[np.ndarray] = None, sessions: Optional[np.ndarray] = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """(N, C) the tracked offset of every sample (zero without a tare) and (N,) bool, the
-    samples whose counts a tare read (taken as unloaded)."""
+    samples whose counts a tare read (taken as unloaded). The tare's state runs through each
+    session (`sessions` labels; None: each segment is its own session)."""
     counts = np.asarray(counts, float)
     n = len(counts)
+    segments = _sessions_hold_segments(segments, sessions, n)
     out, read = np.zeros_like(counts), np.zeros(n, bool)
     if self.tare is None:
       return out, read
@@ -119,7 +126,7 @@ class Memory:
       raise errors.SettingError("a tare needs a contact flag or a detector map")
     if contact is not None:
       contact = np.asarray(contact).astype(bool)
-    for lo, hi in _runs(segments, n):
+    for lo, hi in _runs(segments if sessions is None else sessions, n):
       self._tare_segment(counts[lo:hi], None if contact is None else contact[lo:hi],
                          out[lo:hi], read[lo:hi])
     return out, read
@@ -141,34 +148,39 @@ class Memory:
         free = np.abs(raw[start:] - unit @ offset) < tare.threshold
       else:
         free = ~contact[start:]
-      lo, hi = _first_run(free, 2 * tare.hold)
+      h = tare.hold
+      lo, hi = _first_run(free, 2 * h + 1)
       if lo is None:
         out[start:] = offset
         return
       lo, hi = lo + start, hi + start
-      # causal, and blind to the interval's last `hold` samples: the offset at sample n is
-      # the mean of the counts from the interval's start to n - hold, so the samples of a
-      # load rising back through the threshold, which end the interval, never enter it
-      first = lo + 2 * tare.hold - 1
+      # causal, and blind to the interval's first and last `hold` samples: the offset at
+      # sample n is the mean of the counts from `hold` after the interval's start to
+      # n - hold, so neither a load still falling through the threshold as the interval
+      # begins nor one rising back through it as it ends enters the tare
+      first = lo + 2 * h
       out[start:first] = offset
-      running = np.cumsum(c[lo:hi - tare.hold], axis=0) / np.arange(1, hi - lo - tare.hold
-                                                                    + 1)[:, None]
-      out[first:hi] = running[tare.hold - 1:] - ref
-      read[lo:hi - tare.hold] = True
+      running = np.cumsum(c[lo + h:hi - h], axis=0) / np.arange(1, hi - lo - 2 * h + 1)[:, None]
+      out[first:hi] = running - ref
+      read[lo + h:hi - h] = True
       offset = out[hi - 1].copy()
       start = hi
 
   def features(self, counts: np.ndarray, segments: Optional[np.ndarray] = None,
-               contact: Optional[np.ndarray] = None) -> np.ndarray:
+               contact: Optional[np.ndarray] = None, sessions: Optional[np.ndarray] = None
+               ) -> np.ndarray:
     """(N, width) features of (N, C) counts in time order; `segments` (N,) labels each
-    sample's recording (None: one recording), `contact` (N,) a contact flag for the tare
-    (None: the detector decides)."""
+    sample's recording or episode (None: one), where the filters start afresh; `contact`
+    (N,) a contact flag for the tare (None: the detector decides); `sessions` (N,) labels
+    the runs of segments one sensor read without a reset (power-up), through which the
+    tare's offset carries, as the drift does (None: each segment its own session)."""
     counts = np.asarray(counts, float)
     if counts.ndim != 2 or counts.shape[1] != self.channels:
       raise errors.DataError(f"counts have shape {counts.shape}: expected (N, {self.channels})")
     if segments is not None and len(segments) != len(counts):
       raise errors.DataError(f"segments has {len(segments)} labels for {len(counts)} samples")
-    x = counts - self.offsets(counts, segments, contact)[0]
+    x = counts - self.offsets(counts, segments, contact, sessions)[0]
+    segments = _sessions_hold_segments(segments, sessions, len(x))
     parts = [x]
     runs = _runs(segments, len(x))
     for tau in self.taus:
@@ -225,6 +237,22 @@ def _runs(segments: Optional[np.ndarray], n: int) -> list[tuple[int, int]]:
   cut = np.flatnonzero(s[1:] != s[:-1]) + 1
   edges = np.concatenate([[0], cut, [n]])
   return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
+
+
+def _sessions_hold_segments(segments, sessions, n: int):
+  """The segments, checked to lie each inside one session (with sessions and no segments,
+  the sessions are the segments)."""
+  if sessions is None:
+    return segments
+  if len(sessions) != n:
+    raise errors.DataError(f"sessions has {len(sessions)} labels for {n} samples")
+  if segments is None:
+    return sessions
+  cuts = {lo for lo, _ in _runs(sessions, n)}
+  if not cuts <= {lo for lo, _ in _runs(segments, n)}:
+    raise errors.DataError("a segment crosses from one session into the next: a session is "
+                           "a run of whole segments")
+  return segments
 
 
 def _first_run(mask: np.ndarray, length: int) -> tuple[Optional[int], Optional[int]]:

@@ -161,15 +161,36 @@ def test_bad_temporal_input_names_the_field():
 CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
 
 
-def _run_in_c(est, counts, labels, tmp_path, fixed=False):
+def _run_in_c(est, counts, labels, tmp_path, fixed=False, sessions=None):
   """(what the exported C computes over the recording, the export's report)."""
   from calibrate import cexport
   report = cexport.write(est, tmp_path, fixed_point=fixed)
-  return cexport.run_on_host(est, counts, labels, fixed_point=fixed), report
+  return cexport.run_on_host(est, counts, labels, fixed_point=fixed,
+                             sessions=sessions), report
+
+
+def test_the_tare_carries_through_a_session_and_filters_restart_per_segment():
+  """Three episodes of one session: with `sessions`, each episode starts with the offset the
+  one before ended on, the filters still start afresh; without, each starts from zero."""
+  rng = np.random.default_rng(7)
+  counts, f, labels, _ = _drifting(rng, n=6000, segments=3)
+  est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, segments=labels,
+                                taus=(0.3,), tare=temporal.Tare(threshold=5.0))
+  one = np.zeros(len(counts), int)
+  carried = est.memory.offsets(counts, labels, sessions=one)[0]
+  fresh = est.memory.offsets(counts, labels)[0]
+  starts = np.flatnonzero(np.diff(labels)) + 1
+  for k in starts:
+    np.testing.assert_array_equal(carried[k], carried[k - 1])
+    assert not fresh[k].any() and carried[k].any()
+  feats = est.memory.features(counts, labels, sessions=one)
+  assert not feats[starts, 5:].any()  # each episode's high-pass starts at rest
+  with pytest.raises(errors.DataError, match="crosses from one session"):
+    est.memory.features(counts, one, sessions=labels)
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("kind", ["LS", "LSANN", "GRU"])
+@pytest.mark.parametrize("kind", ["LS", "LSANN", "GRU", "LS in sessions"])
 def test_the_c_export_carries_the_front_end_and_the_recurrent_state(tmp_path, kind):
   """Tare, high-passes, differences and the GRU's state, streamed sample by sample in C
   (float32) with a reset at each recording: equal to `predict` over whole recordings within
@@ -180,15 +201,17 @@ def test_the_c_export_carries_the_front_end_and_the_recurrent_state(tmp_path, ki
   counts = np.round(counts)  # ADC counts
   extra = {"LSANN": {"config": mlp.LMConfig(hidden=4, epochs=5)},
            "GRU": {"gru": recurrent.GRUConfig(hidden=4, steps=20, check=10)}}.get(kind, {})
-  est = estimators.fit_temporal(kind, counts, f, DT, segments=labels, taus=(0.05, 1.0),
+  sessions = np.zeros(len(counts), int) if kind == "LS in sessions" else None
+  est = estimators.fit_temporal(kind.split()[0], counts, f, DT, segments=labels,
+                                sessions=sessions, taus=(0.05, 1.0),
                                 tare=temporal.Tare(threshold=5.0), seed=1, **extra)
   assert est.memory.offsets(counts, labels)[1].any()  # the tare acts in this recording
-  got, report = _run_in_c(est, counts, labels, tmp_path)
-  want = est.predict(counts, segments=labels)
+  got, report = _run_in_c(est, counts, labels, tmp_path, sessions=sessions)
+  want = est.predict(counts, segments=labels, sessions=sessions)
   assert got.shape == want.shape
   assert np.max(np.abs(got - want) / np.abs(want).max(axis=0)) < 1e-5
-  assert report.tanh == {"LS": 0, "LSANN": 4, "GRU": 12}[kind]
-  assert "void estimate_reset(void);" in (tmp_path / "estimator.h").read_text()
+  assert report.tanh == {"LSANN": 4, "GRU": 12}.get(kind, 0)
+  assert "void estimate_restart(void);" in (tmp_path / "estimator.h").read_text()
 
 
 def test_the_c_export_refuses_a_tare_by_contact_flag(tmp_path):

@@ -87,10 +87,12 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
     if est.rnn is not None and not fixed_point:
       out["fixed_point"] = c_cost(est, True)
       try:
-        got = cexport.run_on_host(est, test.counts, test.episode, fixed_point=True)
+        got = cexport.run_on_host(est, test.counts, test.episode, fixed_point=True,
+                                  sessions=np.zeros(len(test.counts), int))
       except errors.SettingError:  # no compiler here: the cost stands, the error unmeasured
         return out
-      want = est.predict(test.counts, segments=test.episode)
+      want = est.predict(test.counts, segments=test.episode,
+                         sessions=np.zeros(len(test.counts), int))
       out["fixed_point"]["max_error_of_scale"] = (
           np.abs(got - want)[test_sel].max(axis=0) / np.abs(want[test_sel]).max(axis=0)).tolist()
     return out
@@ -102,12 +104,14 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
       predict = lambda est: est.predict(test.counts)  # noqa: E731
       fit_net = lambda kind, seed: estimators.fit(  # noqa: E731
           kind, train.counts[net_sel], y[net_sel], linear_fit=ls.linear, seed=seed)
-    else:
+    else:  # one session per recording: the dies' drift carries on from episode to episode
+      one, one_test = np.zeros(len(y), int), np.zeros(len(test.counts), int)
       ls = estimators.fit_temporal(K.LS, train.counts, y, dt, segments=train.episode,
-                                   select=ls_sel, tare=tare_rule(), seed=0)
-      predict = lambda est: est.predict(test.counts, segments=test.episode)  # noqa: E731
+                                   sessions=one, select=ls_sel, tare=tare_rule(), seed=0)
+      predict = lambda est: est.predict(test.counts, segments=test.episode,  # noqa: E731
+                                        sessions=one_test)
       fit_net = lambda kind, seed: estimators.fit_temporal(  # noqa: E731
-          kind, train.counts, y, dt, segments=train.episode, select=net_sel,
+          kind, train.counts, y, dt, segments=train.episode, sessions=one, select=net_sel,
           memory=ls.memory, linear_fit=ls.linear, seed=seed)
     name = "" if method == "static" else "+memory"
     if "LS" in kinds:
@@ -127,7 +131,7 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
     if method != "static":
       for m in [k for k in out if k.endswith(name)]:
         out[m]["taus"] = list(ls.memory.taus)
-      read = ls.memory.offsets(test.counts, test.episode)[1]
+      read = ls.memory.offsets(test.counts, test.episode, sessions=one_test)[1]
       loaded = np.abs(test.wrench[:, 2]) > LOADED
       out["tare"] = {"read_share": float(read.mean()),
                      "false_tare_share": float((read & loaded).sum() / max(read.sum(), 1)),
@@ -199,8 +203,15 @@ def run(ctx) -> dict:
   ctx.print("each history effect alone: shear NRMSE % (mean of X, Y) static -> with memory, "
             "and the share of the error the effect adds over the static floor that memory "
             "recovers (of how many points)")
+  variants = []
   for effect in (e for e in HISTORY_EFFECTS if e in base.effects):
     one = dataclasses.replace(plain, effects=plain.effects + (effect,))
+    variants.append((effect, one))
+    if effect == "thermal_drift":  # a tare can undo the offsets' drift, not the gains'
+      variants += [(f"drift {part} only", dataclasses.replace(one, adc=dataclasses.replace(
+          one.adc, **{other: 0.0}))) for part, other in (("offset", "drift_gain"),
+                                                         ("gain", "drift_offset"))]
+  for effect, one in variants:
     r = footpad.recordings(ctx, one)
     both = evaluate(r["train"][0], r["test"][0], seeds[:1], kinds=("LS", "LSANN", "GRU"))
     ablation[effect] = {}
@@ -214,7 +225,7 @@ def run(ctx) -> dict:
       share = "adds nothing" if np.isnan(recovered) else f"{recovered:4.0%} of {added:4.2f}"
       cells.append(f"{static} {s0:5.2f} -> {memory} {s1:5.2f} ({share})")
     ablation[effect]["taus"] = both["tare"]["taus"]
-    ctx.print(f"  {effect:13s} " + "   ".join(cells))
+    ctx.print(f"  {effect:17s} " + "   ".join(cells))
   # the envelope's corners: every history parameter at the low, then the high end of its
   # sourced range
   from benchmarks.footpad import envelope
