@@ -133,7 +133,7 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
         out[m]["taus"] = list(ls.memory.taus)
       read = ls.memory.offsets(test.counts, test.episode, sessions=one_test)[1]
       loaded = np.abs(test.wrench[:, 2]) > LOADED
-      out["tare"] = {"read_share": float(read.mean()),
+      out["tare"] = {"kept": ls.memory.tare is not None, "read_share": float(read.mean()),
                      "false_tare_share": float((read & loaded).sum() / max(read.sum(), 1)),
                      "taus": list(ls.memory.taus)}
   return out
@@ -181,8 +181,9 @@ def run(ctx) -> dict:
       _row(ctx, name, r)
   tare = res["tare"]
   ctx.print(f"memory: time constants {tare['taus']} s chosen on held-out stroke episodes; "
-            f"the tares read {tare['read_share']:.2%} of the test samples, "
-            f"{tare['false_tare_share']:.2%} of them while the plate read over {LOADED:g} N")
+            + (f"the tares read {tare['read_share']:.2%} of the test samples, "
+               f"{tare['false_tare_share']:.2%} of them while the plate read over {LOADED:g} N"
+               if tare["kept"] else "the tare did not lower LS's held-out error: left out"))
   # the floor: no history effect at all
   plain = dataclasses.replace(base, effects=tuple(e for e in base.effects
                                                   if e not in HISTORY_EFFECTS))
@@ -225,6 +226,7 @@ def run(ctx) -> dict:
       share = "adds nothing" if np.isnan(recovered) else f"{recovered:4.0%} of {added:4.2f}"
       cells.append(f"{static} {s0:5.2f} -> {memory} {s1:5.2f} ({share})")
     ablation[effect]["taus"] = both["tare"]["taus"]
+    ablation[effect]["tare_kept"] = both["tare"]["kept"]
     ctx.print(f"  {effect:17s} " + "   ".join(cells))
   # the envelope's corners: every history parameter at the low, then the high end of its
   # sourced range
