@@ -14,8 +14,9 @@ over each whole episode, approach included, and are scored on the samples on the
 the static fits.
 
 Printed: test NRMSE and R2 per axis for each method (networks: median over `SEEDS` seeds),
-training seconds, the C export's cost on the LPC1768 model (`calibrate.cexport`), the tare's
-false-tare rate (the share of the samples the tares read as unloaded while the plate read
+training seconds, the C export's cost on the LPC1768 model (`calibrate.cexport`); LSANN's
+front end again with the tare carried through each recording instead of restarted with each
+episode (`/session`); the tare's false-tare rate (the share of the samples the tares read as unloaded while the plate read
 more than 1 N); the floor, static LS and LSANN with every history effect off (what a static
 map reaches without history); the ablation: each history effect alone over that floor, each
 static method against its temporal counterpart, and the share of the error the effect adds
@@ -87,12 +88,10 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
     if est.rnn is not None and not fixed_point:
       out["fixed_point"] = c_cost(est, True)
       try:
-        got = cexport.run_on_host(est, test.counts, test.episode, fixed_point=True,
-                                  sessions=np.zeros(len(test.counts), int))
+        got = cexport.run_on_host(est, test.counts, test.episode, fixed_point=True)
       except errors.SettingError:  # no compiler here: the cost stands, the error unmeasured
         return out
-      want = est.predict(test.counts, segments=test.episode,
-                         sessions=np.zeros(len(test.counts), int))
+      want = est.predict(test.counts, segments=test.episode)
       out["fixed_point"]["max_error_of_scale"] = (
           np.abs(got - want)[test_sel].max(axis=0) / np.abs(want[test_sel]).max(axis=0)).tolist()
     return out
@@ -104,8 +103,12 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
       predict = lambda est: est.predict(test.counts)  # noqa: E731
       fit_net = lambda kind, seed: estimators.fit(  # noqa: E731
           kind, train.counts[net_sel], y[net_sel], linear_fit=ls.linear, seed=seed)
-    else:  # one session per recording: the dies' drift carries on from episode to episode
-      one, one_test = np.zeros(len(y), int), np.zeros(len(test.counts), int)
+    else:
+      # "temporal": the tare restarts with each episode, where the CNC has lifted the pad
+      # clear (as an F/T user biases before each contact); "session": it carries through the
+      # recording, as the dies' drift does, and a bad tare stays until the next good one
+      one = np.zeros(len(y), int) if method == "session" else None
+      one_test = np.zeros(len(test.counts), int) if method == "session" else None
       ls = estimators.fit_temporal(K.LS, train.counts, y, dt, segments=train.episode,
                                    sessions=one, select=ls_sel, tare=tare_rule(), seed=0)
       predict = lambda est: est.predict(test.counts, segments=test.episode,  # noqa: E731
@@ -113,12 +116,13 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
       fit_net = lambda kind, seed: estimators.fit_temporal(  # noqa: E731
           kind, train.counts, y, dt, segments=train.episode, sessions=one, select=net_sel,
           memory=ls.memory, linear_fit=ls.linear, seed=seed)
-    name = "" if method == "static" else "+memory"
-    if "LS" in kinds:
+    name = {"static": "", "temporal": "+memory", "session": "+memory/session"}[method]
+    if "LS" in kinds and method != "session":
       out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0,
                           "c": c_cost(ls)}
     for kind in ("LSANN", "NN", "GRU"):
-      if kind not in kinds or (kind == "GRU" and method == "static"):
+      if kind not in kinds or (kind == "GRU" and method == "static") or (
+          kind != "LSANN" and method == "session"):
         continue
       runs, secs = [], []
       for seed in seeds:
@@ -133,9 +137,10 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
         out[m]["taus"] = list(ls.memory.taus)
       read = ls.memory.offsets(test.counts, test.episode, sessions=one_test)[1]
       loaded = np.abs(test.wrench[:, 2]) > LOADED
-      out["tare"] = {"kept": ls.memory.tare is not None, "read_share": float(read.mean()),
-                     "false_tare_share": float((read & loaded).sum() / max(read.sum(), 1)),
-                     "taus": list(ls.memory.taus)}
+      out["tare" + name[len("+memory"):]] = {
+          "read_share": float(read.mean()),
+          "false_tare_share": float((read & loaded).sum() / max(read.sum(), 1)),
+          "taus": list(ls.memory.taus)}
   return out
 
 
@@ -172,18 +177,19 @@ def run(ctx) -> dict:
   base = ctx.settings
   recs = footpad.recordings(ctx)
   train, test = recs["train"][0], recs["test"][0]
-  res = evaluate(train, test, seeds)
+  res = evaluate(train, test, seeds, ("static", "temporal", "session"))
   ctx.print(f"test NRMSE % and R2 % per axis (networks: median of {len(seeds)} seeds); "
             f"training s; C export's cycles per estimate, % of a 1 kHz loop on the LPC1768 "
             f"(96 MHz Cortex-M3, soft float)")
   for name, r in res.items():
-    if name != "tare":
+    if not name.startswith("tare"):
       _row(ctx, name, r)
   tare = res["tare"]
-  ctx.print(f"memory: time constants {tare['taus']} s chosen on held-out stroke episodes; "
-            + (f"the tares read {tare['read_share']:.2%} of the test samples, "
-               f"{tare['false_tare_share']:.2%} of them while the plate read over {LOADED:g} N"
-               if tare["kept"] else "the tare did not lower LS's held-out error: left out"))
+  for key, how in (("tare", "restarted each episode"), ("tare/session", "carried per session")):
+    t = res[key]
+    ctx.print(f"memory, tare {how}: time constants {t['taus']} s chosen on held-out stroke "
+              f"episodes; the tares read {t['read_share']:.2%} of the test samples, "
+              f"{t['false_tare_share']:.2%} of them while the plate read over {LOADED:g} N")
   # the floor: no history effect at all
   plain = dataclasses.replace(base, effects=tuple(e for e in base.effects
                                                   if e not in HISTORY_EFFECTS))
@@ -192,7 +198,7 @@ def run(ctx) -> dict:
                     ("LS", "LSANN"))
   floor = floors["LSANN"]
   _row(ctx, "LSANN, no hist", floor)
-  shear = {m: _shear(res[m]) for m in res if m != "tare"}
+  shear = {m: _shear(res[m]) for m in res if not m.startswith("tare")}
   floor_shear = _shear(floor)
   best = min((m for m in shear if m.endswith("+memory")), key=shear.get)
   ctx.print(f"shear NRMSE (mean of X, Y): static LSANN {shear['LSANN']:.2f} %, best with memory "
@@ -226,28 +232,30 @@ def run(ctx) -> dict:
       share = "adds nothing" if np.isnan(recovered) else f"{recovered:4.0%} of {added:4.2f}"
       cells.append(f"{static} {s0:5.2f} -> {memory} {s1:5.2f} ({share})")
     ablation[effect]["taus"] = both["tare"]["taus"]
-    ablation[effect]["tare_kept"] = both["tare"]["kept"]
     ctx.print(f"  {effect:17s} " + "   ".join(cells))
   # the envelope's corners: every history parameter at the low, then the high end of its
   # sourced range
   from benchmarks.footpad import envelope
   corners = {}
   ctx.print("the envelope's corners (every history parameter at its sourced low / high end): "
-            "shear NRMSE % static LSANN, LSANN+memory, GRU+memory; Z NRMSE %")
+            "shear NRMSE % static LSANN, LSANN+memory (tare per episode, per session), "
+            "GRU+memory; Z NRMSE %")
   for name, level in (("least history", 0.0), ("most history", 1.0)):
     scene = envelope.design_scene(base, envelope.corner(level))
     r = footpad.recordings(ctx, scene)
-    got = evaluate(r["train"][0], r["test"][0], seeds[:1], kinds=("LSANN", "GRU"))
-    corners[name] = {m: got[m]["test"] for m in got if m != "tare"}
+    got = evaluate(r["train"][0], r["test"][0], seeds[:1], ("static", "temporal", "session"),
+                   kinds=("LSANN", "GRU"))
+    corners[name] = {m: got[m]["test"] for m in got if not m.startswith("tare")}
     ctx.print(f"  {name:13s} " + "  ".join(
         f"{m} {_shear(got[m]):5.2f} (Z {got[m]['test']['Z']['nrmse_pct']:4.2f})"
-        for m in ("LSANN", "LSANN+memory", "GRU+memory")))
-  return {"results": {m: r["test"] for m, r in res.items() if m != "tare"},
-          "seconds": {m: r["seconds"] for m, r in res.items() if m != "tare"},
-          "c_cost": {m: r["c"] for m, r in res.items() if m != "tare"},
-          "floors": {m: r["test"] for m, r in floors.items() if m != "tare"},
+        for m in ("LSANN", "LSANN+memory", "LSANN+memory/session", "GRU+memory")))
+  return {"results": {m: r["test"] for m, r in res.items() if not m.startswith("tare")},
+          "seconds": {m: r["seconds"] for m, r in res.items() if not m.startswith("tare")},
+          "c_cost": {m: r["c"] for m, r in res.items() if not m.startswith("tare")},
+          "floors": {m: r["test"] for m, r in floors.items() if not m.startswith("tare")},
           "corners": corners, "best_memory": best,
-          "tare": tare, "floor": floor["test"], "shear_nrmse_pct": shear,
+          "tare": tare, "tare_session": res["tare/session"], "floor": floor["test"],
+          "shear_nrmse_pct": shear,
           "floor_shear_nrmse_pct": float(floor_shear), "ablation": ablation,
           "seeds": seeds, "effects": list(base.effects),
           "scene": scene_lib.FootpadScene.config(base)}
