@@ -45,12 +45,15 @@ def test_time_stops_paying_where_no_later_point_gains_ten_percent_a_doubling():
 def test_the_command_gives_points_and_a_front_for_both_sensors(tmp_path):
   args = ["accuracy_vs_time", "--quick", "--no-progress", "--out", str(tmp_path),
           "--set", "hidden=3", "--set", "epochs=2,6", "--set", "dampings=trainlm",
-          "--set", "degrees=1,3", "--set", "samples=2000"]
+          "--set", "degrees=1,3", "--set", "samples=2000", "--set", "gru_hidden=4",
+          "--set", "gru_steps=20"]
   assert cli.main(args) == 0
   m = json.loads((tmp_path / "metrics.json").read_text())
   for rig in ("footpad", "shell"):
     r = m["rigs"][rig]
-    assert len(r["points"]) == 1 + 2 + 2 * 2  # LS, two degrees, two networks at two caps
+    # LS, two degrees, two networks at two caps; on the footpad also LS+memory, LSANN+memory
+    # at two caps and one GRU+memory
+    assert len(r["points"]) == 1 + 2 + 2 * 2 + (1 + 2 + 1) * (rig == "footpad")
     assert all(np.isfinite(p["error"]) and p["predict_us"] > 0 for p in r["points"])
     errors = [p["error"] for p in r["front"]]
     assert errors == sorted(errors, reverse=True)

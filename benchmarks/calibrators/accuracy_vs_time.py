@@ -8,6 +8,9 @@ per sample). One training run per network keeps its best validation net at every
 (`calibrate.mlp.train(snapshots=...)`), which is what a run capped there would return; its
 time is the run's time at that epoch.
 
+On the footpad also the calibrators that remember (`temporal_calibrators`): LS, LSANN (each
+hidden size and cap) and a GRU (8 and 16 units) behind drift tracking and history features.
+
 Data: the footpad's protocol (LS and polynomials fitted on the Z presses and X/Y strokes, the
 networks on the Asterisk path, LSANN's linear stage the LS fit, all tested on Testing Paths 1
 and 2; error: mean NRMSE over X, Y, Z) and the shell's (everything fitted on the calibration
@@ -50,6 +53,9 @@ class AccuracyVsTime:
       point past 100 epochs paid for its time in the runs that finished).
     dampings: LM damping rules.
     samples: at most this many training samples for the networks, drawn at random.
+    gru_hidden: hidden units of the footpad's GRU+memory (8-16: what a Cortex-M3 steps at
+      1 kHz in fixed point).
+    gru_steps: the GRU's cap on Adam steps.
   """
   rigs: tuple[Literal["footpad", "shell"], ...] = ("footpad", "shell")
 
@@ -61,6 +67,8 @@ class AccuracyVsTime:
   epochs: tuple[int, ...] = setting((10, 30, 100, 300), "[1, 5000]", length=(1, 8))
   dampings: tuple[Literal["trainlm", "nielsen"], ...] = ("trainlm", "nielsen")
   samples: int = setting(20000, "[1000, 1e7]")
+  gru_hidden: tuple[int, ...] = setting((8, 16), "[1, 64]", length=(0, 4))
+  gru_steps: int = setting(3000, "[1, 1e6]")
 
 
 def settings(quick: bool, seed: int) -> AccuracyVsTime:
@@ -83,7 +91,7 @@ def _data(ctx, rig: str) -> dict:
       return float(np.mean(metrics.nrmse_pct(pred, truth)))
     return {"linear": (lin.counts, lin.wrench[:, :3]), "net": (net.counts, net.wrench[:, :3]),
             "test": (test.counts, test.wrench[:, :3]), "error": error,
-            "metric": "mean NRMSE % over X, Y, Z (test paths)"}
+            "metric": "mean NRMSE % over X, Y, Z (test paths)", "recordings": recs}
   from sim.shell import protocol
   _, recs, _ = shell.recordings(ctx, protocol.base(ctx.quick, ctx.seed))
   cal, test = recs["calibration"], recs["test"]
@@ -168,9 +176,66 @@ def _rig(ctx, rig: str) -> dict:
       add(f"{kind} h={hidden} {damping} <={cap}", estimators.at_epoch_cap(est, cap),
           float(tr.times[ran]), tr.compile_seconds, kind=kind, hidden=hidden,
           damping=damping, cap=cap, epochs_run=ran, best_epoch=best_epoch)
+  if "recordings" in d:
+    points += _temporal_points(ctx, d["recordings"], error, caps)
   f = front(points)
   return {"metric": d["metric"], "points": points, "front": f, "stops_paying": stops_paying(f),
           "samples": {"linear": len(x), "networks": len(nx), "test": len(test_x)}}
+
+
+def _temporal_points(ctx, recs: dict, error, caps) -> list[dict]:
+  """The footpad's calibrators that remember (`temporal_calibrators`' protocol: the front end
+  fitted with LS on the strokes, the networks on the whole Asterisk episodes, every test
+  episode predicted in time order and scored on its paths): LS+memory, LSANN+memory at each
+  hidden size and epoch cap, GRU+memory at each of `gru_hidden`. A point's seconds are the front
+  end's fit plus the network's training to its cap (JIT compilation apart)."""
+  from benchmarks.footpad import temporal
+  from calibrate import estimators, mlp, recurrent
+  from sim.footpad import protocol
+  s = ctx.settings
+  train, test = recs["train"], recs["test"]
+  dt = float(train.meta["config"]["params"]["timestep"])
+  y = train.wrench[:, :3]
+  on = test.on_path_mask()
+  kw = dict(segments=train.episode, seed=ctx.seed)
+  points = []
+
+  def add(name, est, seconds, compile_seconds=0.0, **extra):
+    pred = est.predict(test.counts, segments=test.episode)
+    t = time.perf_counter()
+    est.predict(test.counts, segments=test.episode)
+    points.append({"calibrator": name, "seconds": seconds, "compile_seconds": compile_seconds,
+                   "error": error(pred[on], test.wrench[on, :3]),
+                   "predict_us": (time.perf_counter() - t) / len(test.counts) * 1e6,
+                   "kind": name.split()[0], **extra})
+
+  t = time.perf_counter()
+  ls = estimators.fit_temporal(estimators.Kind.LS, train.counts, y, dt,
+                               select=train.on_path_mask(*protocol.LS_PATHS),
+                               tare=temporal.tare_rule(), **kw)
+  front_end = time.perf_counter() - t
+  add("LS+memory", ls, front_end)
+  net_sel = train.on_path_mask("asterisk")
+  for hidden in s.hidden:
+    cfg = mlp.LMConfig(hidden=hidden, epochs=max(caps))
+    est = estimators.fit_temporal(estimators.Kind.LSANN, train.counts, y, dt, select=net_sel,
+                                  memory=ls.memory, linear_fit=ls.linear, config=cfg,
+                                  snapshots=caps, **kw)
+    tr = est.training
+    for cap in caps:
+      ran = min(cap, tr.epochs)
+      add(f"LSANN+memory h={hidden} <={cap}", estimators.at_epoch_cap(est, cap),
+          front_end + float(tr.times[ran]), tr.compile_seconds, hidden=hidden, cap=cap,
+          epochs_run=ran)
+  for hidden in s.gru_hidden:
+    est = estimators.fit_temporal(estimators.Kind.GRU, train.counts, y, dt, select=net_sel,
+                                  memory=ls.memory, linear_fit=ls.linear,
+                                  gru=recurrent.GRUConfig(hidden=hidden, steps=s.gru_steps),
+                                  **kw)
+    tr = est.training
+    add(f"GRU+memory h={hidden}", est, front_end + tr.seconds, tr.compile_seconds,
+        hidden=hidden, steps_run=tr.epochs)
+  return points
 
 
 @register("accuracy_vs_time", "every calibrator over its settings on both sensors: training "
