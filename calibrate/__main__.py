@@ -222,7 +222,7 @@ def _training_args(p: argparse.ArgumentParser) -> None:
                       "('auto': chosen on held-out recordings); needs the time column")
   p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
                  help="re-zero each input during unloaded intervals, those where the LS map's "
-                      "third target (the normal force) reads under NEWTONS for 20 samples; "
+                      "third target (the normal force) reads under NEWTONS for 21 samples; "
                       "needs the time column")
   p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
                  help="undo wrap-around of BITS-bit registers (one-sample jumps over half "

@@ -238,7 +238,7 @@ class Estimator:
     starts = None
     if self.memory is not None:
       counts = self.memory.features(counts, segments, contact, sessions)
-      starts = recurrent.starts(segments, len(counts))
+      starts = recurrent.starts(segments if segments is not None else sessions, len(counts))
     mean, spread = self._mean_spread(counts, starts)
     if not return_std:
       return mean
