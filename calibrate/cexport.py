@@ -244,6 +244,15 @@ class _Writer:
     self.flash += 4 * q.size
     return name
 
+  def _gru_arrays(self, rnn, tag: str, weights, prefix: str) -> list[str]:
+    """The names of a GRU's arrays: its input and output scalings in float, its weights
+    written by `weights` (`array`, or `ints` for Q16) under names with `prefix`."""
+    names = [self.array(f"{tag}_XMEAN", rnn.x_mean), self.array(f"{tag}_XINV", 1 / rnn.x_scale)]
+    names += [weights(f"{tag}_{prefix}{f.upper()}", getattr(rnn, f))
+              for f in ("w", "u", "b", "c", "v", "v0")]
+    return names + [self.array(f"{tag}_YMEAN", rnn.y_mean),
+                    self.array(f"{tag}_YSCALE", rnn.y_scale)]
+
   def gru_fixed(self, rnn, tag: str) -> None:
     """The recurrent network in Q16 fixed point (int32 values, int64 sums; tanh from a
     513-entry table at steps of 1/64, linear between: within 2.3e-5 of tanh): the gates and
@@ -262,11 +271,7 @@ class _Writer:
           "  }",
           "  return v < 0 ? -y : y;",
           "}"]
-    xm, xi = self.array(f"{tag}_XMEAN", rnn.x_mean), self.array(f"{tag}_XINV", 1 / rnn.x_scale)
-    w, u = self.ints(f"{tag}_QW", rnn.w), self.ints(f"{tag}_QU", rnn.u)
-    b, c = self.ints(f"{tag}_QB", rnn.b), self.ints(f"{tag}_QC", rnn.c)
-    v, v0 = self.ints(f"{tag}_QV", rnn.v), self.ints(f"{tag}_QV0", rnn.v0)
-    ym, ys = self.array(f"{tag}_YMEAN", rnn.y_mean), self.array(f"{tag}_YSCALE", rnn.y_scale)
+    xm, xi, w, u, b, c, v, v0, ym, ys = self._gru_arrays(rnn, tag, self.ints, "Q")
     self.state.append(f"static int32_t {tag}_HQ[{h}];")
     self.resets.append(f"  for (int k = 0; k < {h}; ++k) {tag}_HQ[k] = 0;")
     # the float standardisation and output scaling; a float-to-int conversion (lrintf) costs
@@ -313,11 +318,7 @@ class _Writer:
     if self.fixed:
       return self.gru_fixed(rnn, tag)
     h, d, a = rnn.hidden, rnn.inputs, rnn.v.shape[0]
-    xm, xi = self.array(f"{tag}_XMEAN", rnn.x_mean), self.array(f"{tag}_XINV", 1 / rnn.x_scale)
-    w, u = self.array(f"{tag}_W", rnn.w), self.array(f"{tag}_U", rnn.u)
-    b, c = self.array(f"{tag}_B", rnn.b), self.array(f"{tag}_C", rnn.c)
-    v, v0 = self.array(f"{tag}_V", rnn.v), self.array(f"{tag}_V0", rnn.v0)
-    ym, ys = self.array(f"{tag}_YMEAN", rnn.y_mean), self.array(f"{tag}_YSCALE", rnn.y_scale)
+    xm, xi, w, u, b, c, v, v0, ym, ys = self._gru_arrays(rnn, tag, self.array, "")
     self.state.append(f"static float {tag}_H[{h}];")
     self.resets.append(f"  for (int k = 0; k < {h}; ++k) {tag}_H[k] = 0.0f;")
     self.macs += d + 3 * h * (d + h) + 6 * h + a * (h + 1)
@@ -759,3 +760,34 @@ def run_on_host(est, counts: np.ndarray, segments: Optional[np.ndarray] = None,
     run = subprocess.run([str(d / "est")], input=text, capture_output=True, text=True,
                          check=True)
   return np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+
+
+def arm_instructions_per_estimate(out_dir, bench_source: str, calls: int = 20) -> float:
+  """Instructions the exported estimator in `out_dir` executes per `estimate()`, as this
+  module's cost model was measured: `bench_source` (a main() that calls estimate() argv[1]
+  times) compiled with it by Debian's arm-linux-gnueabi-gcc for Thumb-2 soft float, and run
+  in qemu-arm single-stepping, `calls` calls against none.
+
+  Raises:
+    errors.SettingError when arm-linux-gnueabi-gcc or qemu-arm is missing.
+  """
+  import shutil
+  import subprocess
+  cc, qemu = shutil.which("arm-linux-gnueabi-gcc"), shutil.which("qemu-arm")
+  if cc is None or qemu is None:
+    raise errors.SettingError("counting instructions needs Debian's gcc-arm-linux-gnueabi and "
+                              "qemu-user")
+  out_dir = pathlib.Path(out_dir)
+  (out_dir / "bench.c").write_text(bench_source)
+  exe = out_dir / "bench"
+  subprocess.run([cc, "-std=c99", "-O2", "-mcpu=cortex-a8", "-mthumb", "-mfloat-abi=soft",
+                  "-static", str(out_dir / "estimator.c"), str(out_dir / "bench.c"), "-lm",
+                  "-o", str(exe)], check=True, capture_output=True)
+
+  def executed(n):
+    log = out_dir / f"q{n}.log"
+    subprocess.run([qemu, "-singlestep", "-d", "exec,nochain", "-D", str(log), str(exe),
+                    str(n)], check=True, capture_output=True)
+    with open(log) as f:
+      return sum(1 for line in f if line.startswith("Trace"))
+  return (executed(calls) - executed(0)) / calls

@@ -184,7 +184,7 @@ class TrainResult:
   held_out: tuple[tuple[int, int], ...] = ()  # the (start, stop) of the held-out recordings
 
 
-def windows(starts_of_runs, select: np.ndarray, window: int, burn_in: int
+def windows(runs, select: np.ndarray, window: int, burn_in: int
             ) -> list[tuple[int, int, int]]:
   """[(start, stop, first scored)] sample ranges of the training windows: each run (start,
   stop) of one recording is cut into windows of at most `window` samples every window -
@@ -193,7 +193,7 @@ def windows(starts_of_runs, select: np.ndarray, window: int, burn_in: int
   that score no selected sample are left out."""
   out = []
   stride = window - burn_in
-  for lo, hi in starts_of_runs:
+  for lo, hi in runs:
     k = lo
     while True:
       stop = min(k + window, hi)

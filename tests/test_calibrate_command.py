@@ -354,18 +354,7 @@ def test_the_budgets_instruction_counts_match_an_arm_run(tmp_path):
   counts, forces = _data()
   est = estimators.fit("LSANN", counts, forces, config=mlp.LMConfig(hidden=10, epochs=2))
   report = cexport.write(est, tmp_path)
-  (tmp_path / "bench.c").write_text(BENCH)
-  exe = tmp_path / "bench"
-  subprocess.run([ARM_CC, "-std=c99", "-O2", "-mcpu=cortex-a8", "-mthumb", "-mfloat-abi=soft",
-                  "-static", str(tmp_path / "estimator.c"), str(tmp_path / "bench.c"), "-lm",
-                  "-o", str(exe)], check=True, capture_output=True)
-
-  def executed(n):
-    log = tmp_path / f"q{n}.log"
-    subprocess.run([QEMU, "-singlestep", "-d", "exec,nochain", "-D", str(log), str(exe),
-                    str(n)], check=True, capture_output=True)
-    return sum(1 for line in open(log) if line.startswith("Trace"))
-  per_estimate = (executed(40) - executed(0)) / 40
+  per_estimate = cexport.arm_instructions_per_estimate(tmp_path, BENCH, calls=40)
   model = (report.multiply_adds * cexport.Budget().mac_cycles[0]
            + report.tanh * cexport.Budget().tanh_cycles[0])
   assert per_estimate == pytest.approx(model, rel=0.15)

@@ -355,8 +355,7 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   within 1e-3; where qemu-arm and the ARM compiler are at hand, the instructions executed
   per estimate lie within 15 % of the cost model's (measured: float H=8 69,447 against
   71,880; fixed 6,339)."""
-  import subprocess
-  from calibrate import cexport, recurrent
+  from calibrate import recurrent
   rng = np.random.default_rng(6)
   counts, f, labels, _ = _drifting(rng, n=12_000, segments=3)
   counts = np.round(counts)
@@ -369,16 +368,6 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   assert (report.fixed_tanh, report.tanh) == ((24, 0) if fixed else (0, 24))
   if ARM_CC is None or QEMU is None:
     return
-  (tmp_path / "bench.c").write_text(BENCH)
-  exe = tmp_path / "bench"
-  subprocess.run([ARM_CC, "-std=c99", "-O2", "-mcpu=cortex-a8", "-mthumb", "-mfloat-abi=soft",
-                  "-static", str(tmp_path / "estimator.c"), str(tmp_path / "bench.c"), "-lm",
-                  "-o", str(exe)], check=True, capture_output=True)
-
-  def executed(n):
-    log = tmp_path / f"q{n}.log"
-    subprocess.run([QEMU, "-singlestep", "-d", "exec,nochain", "-D", str(log), str(exe),
-                    str(n)], check=True, capture_output=True)
-    return sum(1 for line in open(log) if line.startswith("Trace"))
-  per_estimate = (executed(20) - executed(0)) / 20
+  from calibrate import cexport
+  per_estimate = cexport.arm_instructions_per_estimate(tmp_path, BENCH)
   assert per_estimate == pytest.approx(report.cycles[0], rel=0.15)
