@@ -10,7 +10,8 @@ and hidden state h (H,):
 
 with inputs standardised (`x_mean`, `x_scale`) and outputs in standardised units (`y_mean`,
 `y_scale`). The state starts at zero at the start of every recording (`segments`), as it
-does on the sensor's microcontroller at power-up or after `estimate_reset()`.
+does on the sensor's microcontroller at power-up or after `estimate_reset()` or
+`estimate_restart()`.
 
 Training (`train`) is truncated back-propagation through time on windows cut from the
 training recordings, never across a recording's end: a window of `GRUConfig.window` samples
