@@ -170,6 +170,22 @@ def _loss(p, xs, ys, mask):
   return jnp.sum(err) / jnp.maximum(jnp.sum(mask) * ys.shape[-1], 1.0)
 
 
+@jax.jit
+def _adam_step(p, m, v, t, lr, bx, by, bm):
+  """One Adam step (beta 0.9, 0.999; eps 1e-8) on a batch of windows. Module-level, so that
+  fits of the same shapes (cross-validation's folds, seeds) share one compilation."""
+  b1, b2, eps = 0.9, 0.999, 1e-8
+  loss, g = jax.value_and_grad(_loss)(p, bx, by, bm)
+  m = jax.tree.map(lambda m, g: b1 * m + (1 - b1) * g, m, g)
+  v = jax.tree.map(lambda v, g: b2 * v + (1 - b2) * g * g, v, g)
+  corr = jnp.sqrt(1 - b2 ** t) / (1 - b1 ** t)
+  p = jax.tree.map(lambda p, m, v: p - lr * corr * m / (jnp.sqrt(v) + eps), p, m, v)
+  return p, m, v, loss
+
+
+_held_out_loss = jax.jit(_loss)
+
+
 @dataclasses.dataclass(frozen=True)
 class TrainResult:
   """How training went: Adam steps run (`epochs`, as the networks' results name it), why it
@@ -277,18 +293,8 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   d, a, h = x.shape[1], y.shape[1], config.hidden
   key = jax.random.key(seed)
   p = _init(key, d, h, a)
-  lr, b1, b2, eps = config.learning_rate, 0.9, 0.999, 1e-8
-
-  @jax.jit
-  def step(p, m, v, t, bx, by, bm):
-    loss, g = jax.value_and_grad(_loss)(p, bx, by, bm)
-    m = jax.tree.map(lambda m, g: b1 * m + (1 - b1) * g, m, g)
-    v = jax.tree.map(lambda v, g: b2 * v + (1 - b2) * g * g, v, g)
-    corr = jnp.sqrt(1 - b2 ** t) / (1 - b1 ** t)
-    p = jax.tree.map(lambda p, m, v: p - lr * corr * m / (jnp.sqrt(v) + eps), p, m, v)
-    return p, m, v, loss
-
-  held = jax.jit(_loss)
+  lr = config.learning_rate
+  step, held = _adam_step, _held_out_loss
   m = jax.tree.map(jnp.zeros_like, p)
   v = jax.tree.map(jnp.zeros_like, p)
   bsz = min(config.batch, len(tr))
@@ -298,7 +304,7 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   ty = np.concatenate([ty, np.zeros((pad,) + ty.shape[1:])])
   tm = np.concatenate([tm, np.zeros((pad,) + tm.shape[1:])])
   t0 = time.perf_counter()
-  jax.block_until_ready(step(p, m, v, 1.0, tx[:bsz], ty[:bsz], tm[:bsz]))
+  jax.block_until_ready(step(p, m, v, 1.0, lr, tx[:bsz], ty[:bsz], tm[:bsz]))
   hist = [float(held(p, vx, vy, vm))]
   compile_s = time.perf_counter() - t0
   best, best_check, stop = p, 0, mlp.Stop.MAX_EPOCHS
@@ -309,7 +315,7 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
     if k == 0 and t > 1:  # each pass over the windows in a new order
       perm = rng.permutation(len(tx))
     idx = perm[k * bsz:(k + 1) * bsz]
-    p, m, v, _ = step(p, m, v, float(t), tx[idx], ty[idx], tm[idx])
+    p, m, v, _ = step(p, m, v, float(t), lr, tx[idx], ty[idx], tm[idx])
     if t % config.check and t < config.steps:
       continue
     hist.append(float(held(p, vx, vy, vm)))
