@@ -294,7 +294,6 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   key = jax.random.key(seed)
   p = _init(key, d, h, a)
   lr = config.learning_rate
-  step, held = _adam_step, _held_out_loss
   m = jax.tree.map(jnp.zeros_like, p)
   v = jax.tree.map(jnp.zeros_like, p)
   bsz = min(config.batch, len(tr))
@@ -304,8 +303,8 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   ty = np.concatenate([ty, np.zeros((pad,) + ty.shape[1:])])
   tm = np.concatenate([tm, np.zeros((pad,) + tm.shape[1:])])
   t0 = time.perf_counter()
-  jax.block_until_ready(step(p, m, v, 1.0, lr, tx[:bsz], ty[:bsz], tm[:bsz]))
-  hist = [float(held(p, vx, vy, vm))]
+  jax.block_until_ready(_adam_step(p, m, v, 1.0, lr, tx[:bsz], ty[:bsz], tm[:bsz]))
+  hist = [float(_held_out_loss(p, vx, vy, vm))]
   compile_s = time.perf_counter() - t0
   best, best_check, stop = p, 0, mlp.Stop.MAX_EPOCHS
   t1 = time.perf_counter()
@@ -315,10 +314,10 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
     if k == 0 and t > 1:  # each pass over the windows in a new order
       perm = rng.permutation(len(tx))
     idx = perm[k * bsz:(k + 1) * bsz]
-    p, m, v, _ = step(p, m, v, float(t), lr, tx[idx], ty[idx], tm[idx])
+    p, m, v, _ = _adam_step(p, m, v, float(t), lr, tx[idx], ty[idx], tm[idx])
     if t % config.check and t < config.steps:
       continue
-    hist.append(float(held(p, vx, vy, vm)))
+    hist.append(float(_held_out_loss(p, vx, vy, vm)))
     if not np.isfinite(hist[-1]):
       raise errors.DataError(f"the recurrent network's held-out error became {hist[-1]} at "
                              f"step {t}: lower its learning_rate ({config.learning_rate:g})")
