@@ -305,7 +305,7 @@ def test_the_recurrent_estimator_learns_a_memory_the_static_map_cannot():
   tr = labels < 7
   fit = lambda: estimators.fit_temporal(  # noqa: E731
       "GRU", x[tr], f[tr], DT, segments=labels[tr], taus=(), differences=False, seed=1,
-      gru=recurrent.GRUConfig(hidden=8, steps=1000))
+      gru=recurrent.GRUConfig(hidden=8, steps=1000, patience=4))
   est = fit()
   ls = estimators.fit_temporal("LS", x[tr], f[tr], DT, segments=labels[tr], taus=(),
                                differences=False)
