@@ -33,54 +33,51 @@ import jax.numpy as jnp
 import numpy as np
 
 from calibrate import mlp
-from util import errors
+from util import errors, fields
+from util.fields import setting
 
 
+@fields.declared
 @dataclasses.dataclass(frozen=True)
 class GRUConfig:
   """Training settings.
 
   Attributes:
-    hidden: H, hidden units (8-16: what a Cortex-M3 can step at 1 kHz, `cexport`).
-    window: samples per training window.  burn_in: samples at the start of a window that
-      is not its recording's start that the loss skips.
-    batch: windows per Adam step.  learning_rate: Adam's step size.
-    steps: the cap on Adam steps.  check: steps between held-out evaluations.
+    hidden: H, hidden units (8-16: what a Cortex-M3 steps at 1 kHz in fixed point,
+      `cexport`).
+    window: samples per training window.
+    burn_in: samples at the start of a window that is not its recording's start that the
+      loss skips.
+    batch: windows per Adam step.
+    learning_rate: Adam's step size.
+    steps: the cap on Adam steps.
+    check: steps between held-out evaluations.
     patience: held-out evaluations in a row without a better error that stop training.
     val_fraction: share held out for the early stop (one recording or block at least).
     min_recordings: with this many recordings or more, whole recordings are held out; with
       fewer, contiguous blocks of `block` samples (a recording's past still runs through
       the state; the held-out block's targets never reach the loss).
+    block: samples per held-out block.
   """
-  hidden: int = 8
-  window: int = 512
-  burn_in: int = 128
-  batch: int = 16
-  learning_rate: float = 1e-2
-  steps: int = 3000
-  check: int = 50
-  patience: int = 10
-  val_fraction: float = 0.2
-  min_recordings: int = 5
-  block: int = 2000
+  hidden: int = setting(8, "[1, 256]")
+  window: int = setting(512, "[8, 1e6]")
+  burn_in: int = setting(128, "[0, 1e6]")
+  batch: int = setting(16, "[1, 1e5]")
+  learning_rate: float = setting(1e-2, "(0, 1]")
+  steps: int = setting(3000, "[1, 1e7]")
+  check: int = setting(50, "[1, 1e6]")
+  patience: int = setting(10, "[1, 1e6]")
+  val_fraction: float = setting(0.2, "(0, 1)")
+  min_recordings: int = setting(5, "[2, 1e6]")
+  block: int = setting(2000, "[8, 1e7]")
+
+  def relations(self):
+    """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield self.burn_in < self.window, "burn_in", f"0 to window - 1 ({self.window - 1})", \
+        self.burn_in
 
   def validate(self) -> None:
-    ints = {"hidden": (1, 256), "window": (8, 1_000_000), "batch": (1, 100_000),
-            "steps": (1, 10_000_000), "check": (1, 1_000_000), "patience": (1, 1_000_000),
-            "min_recordings": (2, 1_000_000), "block": (8, 10_000_000)}
-    for name, (lo, hi) in ints.items():
-      v = getattr(self, name)
-      if not (isinstance(v, (int, np.integer)) and lo <= v <= hi):
-        raise errors.SettingError(f"GRU {name}={v!r} is out of range: integers {lo}..{hi}")
-    if not (isinstance(self.burn_in, (int, np.integer)) and 0 <= self.burn_in < self.window):
-      raise errors.SettingError(f"GRU burn_in={self.burn_in!r} is out of range: integers "
-                                f"0..window-1 ({self.window - 1})")
-    if not (np.isfinite(self.learning_rate) and 0 < self.learning_rate <= 1):
-      raise errors.SettingError(f"GRU learning_rate={self.learning_rate!r} is out of range: "
-                                f"(0, 1]")
-    if not 0 < self.val_fraction < 1:
-      raise errors.SettingError(f"GRU val_fraction={self.val_fraction!r} is out of range: "
-                                f"(0, 1)")
+    fields.check(self)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -156,6 +156,14 @@ def test_bad_temporal_input_names_the_field():
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.3,))
   with pytest.raises(errors.DataError, match="segments has 3 labels"):
     est.predict(counts, segments=labels[:3])
+  from calibrate import recurrent
+  with pytest.raises(errors.SettingError, match=r"hidden=0 is out of range"):
+    estimators.fit_temporal("GRU", counts, f, DT, segments=labels, taus=(),
+                            gru=recurrent.GRUConfig(hidden=0))
+  with pytest.raises(errors.SettingError, match="burn_in=512 is out of range"):
+    recurrent.GRUConfig(burn_in=512).validate()
+  with pytest.raises(errors.SettingError, match="reads recordings in time order"):
+    estimators.fit("GRU", counts, f)
 
 
 CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
