@@ -3,7 +3,6 @@ their uncertainty, the command line, the scikit-learn face, and the estimator in
 
 import json
 import shutil
-import subprocess
 import warnings
 
 import numpy as np
@@ -225,23 +224,6 @@ def test_the_shipped_example_is_what_the_simulator_writes(tmp_path, quick_footpa
 # ---- the estimator in C --------------------------------------------------------------------
 
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
-HARNESS = r"""
-#include <stdio.h>
-#include "estimator.h"
-int main(void) {
-  unsigned v[ESTIMATOR_INPUTS];
-  for (;;) {
-    uint16_t c[ESTIMATOR_INPUTS]; float out[ESTIMATOR_OUTPUTS];
-    for (int i = 0; i < ESTIMATOR_INPUTS; ++i)
-      if (scanf("%u", &v[i]) != 1) return 0; else c[i] = (uint16_t)v[i];
-    estimate(c, out);
-    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
-    printf("\n");
-  }
-}
-"""
-
-
 def _auto(counts, forces):
   from calibrate import splits
   est, _ = estimators.fit_auto(counts, forces, splits.groups(len(counts), "blocks", block=100),
@@ -259,16 +241,9 @@ def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cr
       kind, counts, forces, config=FAST, ensemble=ensemble, seed=1, cross=cross,
       ridge=1e-6 if cross else None)
   report = cexport.write(est, tmp_path)
-  (tmp_path / "main.c").write_text(HARNESS)
-  exe = tmp_path / "est"
-  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
-                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
-                  str(exe)], check=True, capture_output=True, text=True)
   # past the training range too: the cross-term polynomial's tangent plane out there
   test = np.random.default_rng(9).integers(300, 3900, (300, 6))
-  run = subprocess.run([str(exe)], input="\n".join(" ".join(map(str, r)) for r in test),
-                       capture_output=True, text=True, check=True)
-  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  c_out = cexport.run_on_host(est, test, cc=CC)
   want = est.predict(test.astype(float))
   # float32 weights and arithmetic: agreement relative to each output's scale
   scale = np.abs(want).max(axis=0)
@@ -304,16 +279,7 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
     if k == nets[0]:
       np.testing.assert_allclose(got_in[:, j], part.predict(inside)[:, j])
       np.testing.assert_allclose(got[:, j], want[:, j])
-  cexport.write(est, tmp_path)
-  (tmp_path / "main.c").write_text(HARNESS)
-  exe = tmp_path / "est"
-  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
-                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
-                  str(exe)], check=True, capture_output=True, text=True)
-  run = subprocess.run([str(exe)], input="\n".join(" ".join(str(int(v)) for v in r)
-                                                   for r in beyond),
-                       capture_output=True, text=True, check=True)
-  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  c_out = cexport.run_on_host(est, beyond, cc=CC)
   assert np.max(np.abs(c_out - got) / np.abs(got).max(axis=0)) < 1e-5
 
 
@@ -389,22 +355,6 @@ def test_a_bug_in_the_command_says_so_and_saves_its_traceback(tmp_path, capsys, 
   assert list((tmp_path / "tracebacks").glob("calibrate-*.txt"))
 
 
-HARNESS_FLOAT = r"""
-#include <stdio.h>
-#include "estimator.h"
-int main(void) {
-  for (;;) {
-    float in[ESTIMATOR_INPUTS], out[ESTIMATOR_OUTPUTS];
-    for (int i = 0; i < ESTIMATOR_INPUTS; ++i)
-      if (scanf("%f", &in[i]) != 1) return 0;
-    estimate(in, out);
-    for (int j = 0; j < ESTIMATOR_OUTPUTS; ++j) printf("%.9g ", out[j]);
-    printf("\n");
-  }
-}
-"""
-
-
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 @pytest.mark.parametrize("kind", ["LS", "POLY", "LSANN", "NN"])
 def test_an_estimator_of_signed_fractional_inputs_exports_a_float_signature(tmp_path, kind):
@@ -421,17 +371,9 @@ def test_an_estimator_of_signed_fractional_inputs_exports_a_float_signature(tmp_
   cexport.write(est, tmp_path)
   header = (tmp_path / "estimator.h").read_text()
   assert "const float inputs[ESTIMATOR_INPUTS]" in header and "uint16_t counts" not in header
-  (tmp_path / "main.c").write_text(HARNESS_FLOAT)
-  exe = tmp_path / "est"
-  subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic",
-                  str(tmp_path / "estimator.c"), str(tmp_path / "main.c"), "-lm", "-o",
-                  str(exe)], check=True, capture_output=True, text=True)
   test = np.column_stack([rng.uniform(-2, 2, (200, 2)), rng.uniform(-300, 300, (200, 2))])
   test = test.astype(np.float32).astype(float)  # what the C reads
-  run = subprocess.run([str(exe)], input="\n".join(" ".join(f"{v:.9g}" for v in r)
-                                                   for r in test),
-                       capture_output=True, text=True, check=True)
-  c_out = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+  c_out = cexport.run_on_host(est, test, cc=CC)
   want = est.predict(test)
   scale = np.abs(want).max(axis=0)
   assert np.max(np.abs(c_out - want) / scale) < 1e-5
