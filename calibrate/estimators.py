@@ -905,9 +905,9 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
   base = temporal.Memory(c, dt, (), differences, tare, detector, reference)
   base.validate()
   if taus is None:
-    taus, differences, _ = _choose_taus(base, counts, forces, segments, select,
-                                        (contact, sessions), tuple(candidates), max_taus,
-                                        folds, seed)
+    taus, differences = _choose_taus(base, counts, forces, segments, select,
+                                     (contact, sessions), tuple(candidates), max_taus, folds,
+                                     seed)
   memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
                                differences=differences)
   memory.validate()
@@ -1000,10 +1000,9 @@ def _fit_gru(memory, x, forces, segments, select, names, seed, folds, config, kw
 
 
 def _choose_taus(base, counts, forces, segments, select, stream, candidates, max_taus,
-                 folds, seed) -> tuple[tuple[float, ...], bool, float]:
-  """The time constants, greedily, that lower LS's error on held-out segments, whether the
-  first differences do (when `base.differences` allows them), and that held-out error (RMS
-  over the outputs, each relative to its spread)."""
+                 folds, seed) -> tuple[tuple[float, ...], bool]:
+  """The time constants, greedily, that lower LS's error on held-out segments, and whether
+  the first differences do (when `base.differences` allows them)."""
   labels = segments[select]
   if folds < 2:
     raise errors.SettingError(f"choosing the time constants holds out recordings: folds="
@@ -1047,4 +1046,4 @@ def _choose_taus(base, counts, forces, segments, select, stream, candidates, max
       break
     kept.append(t)
     best = score
-  return tuple(sorted(k for k in kept if k != "d")), "d" in kept, best
+  return tuple(sorted(k for k in kept if k != "d")), "d" in kept

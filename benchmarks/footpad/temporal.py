@@ -41,7 +41,8 @@ AXES = ("X", "Y", "Z")
 
 
 def tare_rule():
-  """Unloaded: the LS stroke map reads under 10 N of normal force for 10 ms. The dies'
+  """Unloaded: the LS stroke map reads under 10 N of normal force for 21 ms (2 hold + 1
+  samples; the tare reads them from 10 ms in to 10 ms back). The dies'
   offset drift at its nominal 0.5 % of span makes that map's normal force err by about 4 %
   of its range, ~6 N (measured: LS test NRMSE Z 4.1 % with `thermal_drift` alone, 2.3 %
   without), and the lightest press on a path is 58 N (0.5 mm deep; measured), so 10 N
@@ -52,9 +53,10 @@ def tare_rule():
 
 
 def evaluate(train, test, seeds, methods=("static", "temporal"),
-             kinds=("LS", "LSANN", "NN", "GRU")) -> dict:
+             kinds=("LS", "LSANN", "NN", "GRU"), costs: bool = False) -> dict:
   """{method name: {"test": per-axis summary (networks: median over seeds), "seconds",
-  "taus"}} and the tare's figures, for the protocol's recordings `train` and `test`."""
+  "taus", with `costs` "c": the C export's cost}} and the tare's figures, for the
+  protocol's recordings `train` and `test`."""
   from calibrate import estimators, metrics
   from sim.footpad import protocol
   from util import errors
@@ -118,8 +120,9 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
           memory=ls.memory, linear_fit=ls.linear, seed=seed)
     name = {"static": "", "temporal": "+memory", "session": "+memory/session"}[method]
     if "LS" in kinds and method != "session":
-      out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0,
-                          "c": c_cost(ls)}
+      out["LS" + name] = {"test": score(predict(ls)), "seconds": time.perf_counter() - t0}
+      if costs:
+        out["LS" + name]["c"] = c_cost(ls)
     for kind in ("LSANN", "NN", "GRU"):
       if kind not in kinds or (kind == "GRU" and method == "static") or (
           kind != "LSANN" and method == "session"):
@@ -130,8 +133,9 @@ def evaluate(train, test, seeds, methods=("static", "temporal"),
         est = fit_net(K(kind), seed)
         secs.append(time.perf_counter() - t1)
         runs.append(score(predict(est)))
-      out[kind + name] = {"test": median(runs), "seconds": float(np.median(secs)),
-                          "c": c_cost(est)}
+      out[kind + name] = {"test": median(runs), "seconds": float(np.median(secs))}
+      if costs:
+        out[kind + name]["c"] = c_cost(est)
     if method != "static":
       for m in [k for k in out if k.endswith(name)]:
         out[m]["taus"] = list(ls.memory.taus)
@@ -177,7 +181,7 @@ def run(ctx) -> dict:
   base = ctx.settings
   recs = footpad.recordings(ctx)
   train, test = recs["train"][0], recs["test"][0]
-  res = evaluate(train, test, seeds, ("static", "temporal", "session"))
+  res = evaluate(train, test, seeds, ("static", "temporal", "session"), costs=True)
   ctx.print(f"test NRMSE % and R2 % per axis (networks: median of {len(seeds)} seeds); "
             f"training s; C export's cycles per estimate, % of a 1 kHz loop on the LPC1768 "
             f"(96 MHz Cortex-M3, soft float)")
