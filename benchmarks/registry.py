@@ -37,6 +37,7 @@ class Context:
     show_progress: draw progress bars.
     executor: where sweeps run their points (`benchmarks.executors.ExecutorSpec`).
     lines: what `print` printed, in order (the report's text for DIR/table.md).
+    preset: the name of the preset the settings start from ("" for none).
     benchmark: the registered name the run was started by.
     recordings: cache stems of the recordings the run used (`used`), for the manifest.
   """
@@ -50,6 +51,7 @@ class Context:
   executor: Any = None
   lines: list = dataclasses.field(default_factory=list)
   benchmark: str = ""
+  preset: str = ""
   recordings: list = dataclasses.field(default_factory=list)
 
   @property
@@ -95,6 +97,12 @@ class Benchmark:
     tags: the rig and what kind of benchmark it is; "fast": its --quick run takes seconds
       (the registry-wide conformance test runs every such benchmark twice).
     doc: the module's docstring, for NAME --help.
+    presets: () -> {name: preset} of the designs --preset takes (each with `overrides()`,
+      the --set text of its settings, and `lines()`, its account for the report); None
+      where the benchmark takes none.
+    preset_prefix: where the presets' keys sit among the benchmark's settings ("scene.").
+    default_preset: the preset a run without --preset uses (None: the settings as
+      declared).
   """
   name: str
   description: str
@@ -103,13 +111,33 @@ class Benchmark:
   fixed: Mapping[str, str]
   tags: tuple[str, ...]
   doc: str
+  presets: Optional[Callable[[], Mapping[str, Any]]] = None
+  preset_prefix: str = ""
+  default_preset: Optional[str] = None
+
+  def preset(self, name: Optional[str]):
+    """(the preset called `name`, or the default one; its --set overrides under the
+    benchmark's keys), or (None, {}) where there is none."""
+    name = name or self.default_preset
+    if name is None:
+      return None, {}
+    known = self.presets() if self.presets else {}
+    if name not in known:
+      raise errors.SettingError(
+          f"--preset {name}: {self.name} takes no preset" if not known else
+          str(errors.unknown("preset", name, known,
+                             f"python -m benchmarks.run {self.name} --help")))
+    preset = known[name]
+    return preset, {self.preset_prefix + k: v for k, v in preset.overrides().items()}
 
 
 _REGISTRY: dict[str, Benchmark] = {}
 
 
 def register(name: str, description: str, *, settings: Callable[[bool, int], Any],
-             fixed: Optional[Mapping[str, str]] = None, tags: tuple[str, ...] = ()):
+             fixed: Optional[Mapping[str, str]] = None, tags: tuple[str, ...] = (),
+             presets: Optional[Callable[[], Mapping[str, Any]]] = None, preset_prefix: str = "",
+             default_preset: Optional[str] = None):
   """Decorator: registers run(ctx) under `name`."""
   def add(run: Callable[[Context], dict]) -> Callable[[Context], dict]:
     if name in _REGISTRY:
@@ -117,7 +145,8 @@ def register(name: str, description: str, *, settings: Callable[[bool, int], Any
     # a functools.partial carries its function's module
     module = sys.modules.get(getattr(getattr(run, "func", run), "__module__", ""), None)
     _REGISTRY[name] = Benchmark(name, description, run, settings, dict(fixed or {}),
-                                tuple(tags), (getattr(module, "__doc__", None) or "").strip())
+                                tuple(tags), (getattr(module, "__doc__", None) or "").strip(),
+                                presets, preset_prefix, default_preset)
     return run
   return add
 

@@ -58,6 +58,12 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
   parser.add_argument("--compare", type=pathlib.Path, default=None, metavar="DIR",
                       help="print this run's metrics beside those of an earlier run's "
                            "results folder")
+  parser.add_argument("--preset", default=None, metavar="NAME",
+                      help="start from a named design of the rig's ranged parameters, your "
+                           "--set on top: on the footpad's benchmarks 'paper' (identified "
+                           "from the paper's tables by identify_footpad) or 'nominal' (every "
+                           "parameter at its sourced default); NAME --help says which a "
+                           "benchmark takes and which it runs by default")
   parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                       help="change a setting, e.g. params.friction_mu0=1.5, adc.vref=5, "
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
@@ -108,6 +114,11 @@ def benchmark_help(bench: registry.Benchmark, quick: bool, seed: int) -> str:
     lines.append(f"  {k.name}  ({k.type}, default {_format(k.default)}; allowed {k.allowed})")
     if k.doc:
       lines.append(f"      {k.doc}")
+  if bench.presets:
+    lines += ["", "presets (--preset NAME; your --set applies on top):"]
+    for name, preset in bench.presets().items():
+      default = " (the default)" if name == bench.default_preset else ""
+      lines.append(f"  {name}{default}: {preset.what}")
   if bench.fixed:
     lines += ["", "set by the benchmark itself (not settable):"]
     lines += [f"  {key}: {why}" for key, why in bench.fixed.items()]
@@ -149,7 +160,9 @@ def _main(argv: Optional[list[str]]) -> int:
     return 0
   from sim import settings
   overrides = _parse_sets(args.sets)
-  applied = settings.apply(bench.settings(args.quick, args.seed), overrides, bench.fixed)
+  preset, preset_sets = bench.preset(args.preset)
+  applied = settings.apply(settings.apply(bench.settings(args.quick, args.seed), preset_sets,
+                                          bench.fixed), overrides, bench.fixed)
   if hasattr(applied, "validate"):  # what a field's range cannot say (a custom path's file)
     applied.validate()
   if args.workers is not None and not 1 <= args.workers <= 1024:
@@ -170,18 +183,22 @@ def _main(argv: Optional[list[str]]) -> int:
   lock = outputs.claim(out)  # before any simulation: a run that cannot write does not start
   try:
     return _run(bench, args, applied, overrides, out, earlier,
-                sys.argv[1:] if argv is None else list(argv))
+                sys.argv[1:] if argv is None else list(argv), preset)
   finally:
     lock.release()
 
 
 def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path,
-         earlier: Optional[list[outputs.Row]], argv: list[str]) -> int:
+         earlier: Optional[list[outputs.Row]], argv: list[str], preset=None) -> int:
   from sim import cache
   spec = executors.ExecutorSpec(args.executor, args.workers, args.address, args.tls_ca_file,
                                 args.tls_cert, args.tls_key)
   ctx = registry.Context(args.quick, args.seed, out, applied, overrides, not args.no_cache,
-                         not args.no_progress, spec, benchmark=args.name)
+                         not args.no_progress, spec, benchmark=args.name,
+                         preset=preset.name if preset else "")
+  if preset is not None:  # which design the numbers below are of, first in the report
+    for line in preset.lines():
+      ctx.print(line)
   for folder in (cache.cache_dir(), out):  # what killed runs left half-written
     cache.clean_orphans(folder)
   started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
@@ -201,7 +218,7 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
   command = "python -m benchmarks.run " + shlex.join(argv)
   manifest = {
       "benchmark": args.name, "command": command, "seed": args.seed, "quick": args.quick,
-      "overrides": overrides, "settings": _resolved(applied),
+      "preset": ctx.preset, "overrides": overrides, "settings": _resolved(applied),
       "effects": list(getattr(applied, "effects", ()) or ()),
       "versions": outputs.versions(), "git_commit": outputs.git_commit(),
       "cache_dir": str(cache.cache_dir()), "started": started, "wall_seconds": wall,

@@ -14,6 +14,12 @@ def protocol_settings(quick: bool, seed: int):
   return protocol.base(quick, seed)
 
 
+def presets() -> dict:
+  """The footpad's named designs (`sim.footpad.presets`): what --preset takes."""
+  from sim.footpad import presets as presets_lib
+  return presets_lib.presets()
+
+
 def recordings(ctx, base=None) -> dict:
   """{"train", "test"}: (recording, timing) of the protocol for `base` (default the run's
   settings), from the cache when simulated before."""

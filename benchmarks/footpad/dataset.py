@@ -11,7 +11,8 @@ from benchmarks.registry import register
 
 
 @register("footpad_dataset", "generate and cache the footpad's training and test recordings "
-          "(paper Sec. III)", settings=footpad.protocol_settings, fixed=footpad.FIXED,
+          "(paper Sec. III)", settings=footpad.protocol_settings, presets=footpad.presets,
+          fixed=footpad.FIXED,
           tags=("footpad", "data"))
 def run(ctx) -> dict:
   from sim import cache

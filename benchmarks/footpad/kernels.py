@@ -13,7 +13,7 @@ from benchmarks.registry import register
 
 
 @register("footpad_kernels", "shear sensing through the bonded-layer vs half-space die kernel "
-          "(linear fit R²)", settings=footpad.protocol_settings,
+          "(linear fit R²)", settings=footpad.protocol_settings, presets=footpad.presets,
           fixed={**footpad.FIXED, "kernel": "the benchmark runs both kernels"},
           tags=("footpad", "physics", "fast"))
 def run(ctx) -> dict:

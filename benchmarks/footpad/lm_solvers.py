@@ -100,7 +100,8 @@ def _race(name, run, val_mse, target, cap_s):
 
 
 @register("lm_solvers", "LM for the footpad network: own vs jaxopt, scipy, mujoco.minimize, optimistix",
-          settings=footpad.protocol_settings, fixed=footpad.FIXED, tags=("footpad", "speed"))
+          settings=footpad.protocol_settings, presets=footpad.presets, fixed=footpad.FIXED,
+          tags=("footpad", "speed"))
 def run(ctx):
   import jax
   from benchmarks import outputs

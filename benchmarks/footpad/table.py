@@ -416,6 +416,7 @@ for _name, _paths, _what in (
     ("circular_path", ("circular",), "LS, LSANN and NN-only trained on the Circular path"),
     ("footpad_table1", ("asterisk", "circular"), "the paper's full protocol (Asterisk + "
                                                  "Circular training), Table I")):
-  register(_name, "footpad: " + _what, settings=footpad.protocol_settings, fixed=footpad.FIXED,
+  register(_name, "footpad: " + _what, settings=footpad.protocol_settings,
+           presets=footpad.presets, fixed=footpad.FIXED,
            tags=("footpad", "paper", "calibration"))(
       functools.partial(run_table, nn_paths=_paths))

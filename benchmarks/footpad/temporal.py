@@ -174,7 +174,8 @@ def _row(ctx, name, res):
 
 @register("temporal_calibrators", "footpad: static calibrators against the same behind "
           "drift tracking and history features, and what each history effect costs them",
-          settings=footpad.protocol_settings, fixed=footpad.FIXED, tags=("footpad",))
+          settings=footpad.protocol_settings, presets=footpad.presets, fixed=footpad.FIXED,
+          tags=("footpad",))
 def run(ctx) -> dict:
   from sim.footpad import scene as scene_lib
   seeds = list(range(1, SEEDS + 1))

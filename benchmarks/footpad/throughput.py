@@ -19,6 +19,7 @@ from benchmarks.registry import register
 
 @register("footpad_throughput", "footpad simulation speed: scene vs bare mj_step, "
           "sensor-chain share of time", settings=footpad.protocol_settings,
+          presets=footpad.presets,
           fixed=footpad.FIXED, tags=("footpad", "speed"))
 def run(ctx) -> dict:
   from sim.footpad import layer, protocol, scene as scene_lib

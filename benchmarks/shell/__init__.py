@@ -18,6 +18,12 @@ FIXED = {"frames": "the protocol runs the paper's frame counts (a tenth with --q
          "seed": "use --seed"}
 
 
+def presets() -> dict:
+  """The shell's named designs (`sim.shell.presets`): what --preset takes."""
+  from sim.shell import presets as presets_lib
+  return presets_lib.presets()
+
+
 def protocol_settings(quick: bool, seed: int):
   """The shell protocol's scene (`sim.shell.protocol.base`), the root of --set keys."""
   from sim.shell import protocol

@@ -58,7 +58,8 @@ def _stride_extremes(f: np.ndarray, t: np.ndarray, stride: float) -> tuple[float
 
 
 @register("collisions", "shell robot walking into a wall corner-first and head-on: force traces "
-          "vs Fig. 11", settings=shell.protocol_settings, fixed=shell.FIXED,
+          "vs Fig. 11", settings=shell.protocol_settings,
+          presets=shell.presets, fixed=shell.FIXED,
           tags=("shell", "paper", "dynamics"))
 def run(ctx):
   from models import shell as model_lib

@@ -42,7 +42,7 @@ def compare(force: np.ndarray, gravity: np.ndarray) -> dict:
 
 
 @register("gravity_vectors", "shell vs accelerometer, 50 g on the shell, robot turned through "
-          "sequence A-I", settings=shell.protocol_settings,
+          "sequence A-I", settings=shell.protocol_settings, presets=shell.presets,
           fixed={**shell.FIXED, "downward_bias": "the benchmark calibrates with 0 and 0.8",
                  "params.payload": "the turn carries the paper's 50 g"},
           tags=("shell", "paper", "dynamics", "fast"))

@@ -32,7 +32,8 @@ def ringing_hz(z: np.ndarray, dt: float) -> float:
 
 
 @register("step_response", "shell step response: 50 g dropped on the inverted robot, ringing Hz "
-          "and Fz step", settings=shell.protocol_settings, fixed=shell.FIXED,
+          "and Fz step", settings=shell.protocol_settings,
+          presets=shell.presets, fixed=shell.FIXED,
           tags=("shell", "paper", "dynamics", "fast"))
 def run(ctx) -> dict:
   from models import shell as model_lib

@@ -31,7 +31,8 @@ PAPER_RANGE = {a: round(float(paper.TABLE2[a][0] * u), 9)  # N, mN m
 
 
 @register("shell_table1", "shell paper Table I: cubic calibration, median % error and worst % "
-          "of range", settings=shell.protocol_settings, fixed=shell.FIXED,
+          "of range", settings=shell.protocol_settings,
+          presets=shell.presets, fixed=shell.FIXED,
           tags=("shell", "paper", "calibration"))
 def run(ctx) -> dict:
   from calibrate import metrics

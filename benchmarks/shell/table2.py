@@ -40,7 +40,7 @@ def count_noise_equivalent(est, counts: np.ndarray, resolution: np.ndarray
 
 
 @register("shell_table2", "shell paper Table II: range and resolution (std at rest) per axis",
-          settings=shell.protocol_settings, fixed=shell.FIXED,
+          settings=shell.protocol_settings, presets=shell.presets, fixed=shell.FIXED,
           tags=("shell", "paper", "calibration", "fast"))
 def run(ctx) -> dict:
   from sim.shell import scene as scene_lib

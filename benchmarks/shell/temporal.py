@@ -72,7 +72,8 @@ def _summary(res) -> tuple[float, float]:
 
 @register("shell_temporal", "shell: the cubic and LS, static and behind history features, and "
           "a GRU, with the shell's effects that carry the past (stray IR, mount friction)",
-          settings=shell.protocol_settings, fixed=shell.FIXED, tags=("shell", "calibration"))
+          settings=shell.protocol_settings, presets=shell.presets, fixed=shell.FIXED,
+          tags=("shell", "calibration"))
 def run(ctx) -> dict:
   from sim.shell import protocol, turn
   base = dataclasses.replace(ctx.settings,

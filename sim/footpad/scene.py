@@ -56,6 +56,13 @@ class FootpadScene:
     paths: path names (see `sim.footpad.trajectories.PATHS`).
     z_levels: indentations, m, at which every path except z_press runs.
     feed: CNC feed rate, m/s (assumed 5 mm/s: ~9.6 s per asterisk path).
+    stroke: amplitude of the X and Y strokes the linear fit takes (x_stroke, y_stroke), m.
+      The paper does not give it (Sec. III-B); its own numbers bound it. Its test paths,
+      which reach 3 mm from the origin, span 126 N of shear (Table I: RMSE over NRMSE,
+      12.84 N / 10.14 % on Y, 10.48 N / 8.30 % on X, both networks alike), while its strokes
+      span 233 N on Y and 219 N on X (Sec. III-B): with the same rubber, strokes of about
+      +-5.2-5.5 mm if the pad stays stuck, shorter where it slides. Sourced range 3-6 mm
+      (3 mm, the reach of every other path of the paper, is the default).
     press_repeats: presses in z_press (paper: 10); strokes use 3 back-and-forth passes.
     press_depth: depth of z_press, m; None presses until the first die saturates (paper
       Sec. III-B), computed from the kernel, capped at the strain limit.
@@ -74,6 +81,8 @@ class FootpadScene:
   paths: tuple[PathName, ...] = ("asterisk",)
   z_levels: tuple[float, ...] = setting(PAPER_Z_LEVELS, "[0, 0.02]", "m", length=(1, 100))
   feed: float = setting(0.005, "[1e-4, 0.05]", "m/s")
+  stroke: float = setting(trajectories.STROKE, "[0.0005, 0.01]", "m",
+                          sourced=fields.Sourced(0.003, 0.006))
   press_repeats: int = setting(10, "[1, 100]")
   press_depth: Optional[float] = setting(None, "(0, 0.02]", "m")
   kernel: layer.Kernel = layer.Kernel.BONDED_LAYER
@@ -204,7 +213,8 @@ def episodes(scene: FootpadScene, kernel: np.ndarray) -> list[trajectories.Episo
                                       scene.press_repeats))
       continue
     for z in scene.z_levels:
-      out.append(trajectories.episode(path, z, scene.feed, dt, repeats=3))
+      out.append(trajectories.episode(path, z, scene.feed, dt, repeats=3,
+                                      stroke=scene.stroke))
   if scene.custom_path is not None:
     out.append(trajectories.waypoint_episode(trajectories.read_path(scene.custom_path), dt))
   return out
@@ -564,7 +574,8 @@ def cache_key(scene: FootpadScene) -> dict:
 def _commands(scene: FootpadScene) -> int:
   """`stream_of` the scene's path episodes; z_press's depth comes from the pad's kernel,
   which the settings in the key already determine."""
-  eps = [trajectories.episode(p, z, scene.feed, scene.params.timestep, repeats=3)
+  eps = [trajectories.episode(p, z, scene.feed, scene.params.timestep, repeats=3,
+                              stroke=scene.stroke)
          for p in scene.paths if p != "z_press" for z in scene.z_levels]
   if scene.custom_path is not None:
     eps.append(trajectories.waypoint_episode(trajectories.read_path(scene.custom_path),

@@ -19,7 +19,7 @@ import numpy as np
 
 from util import errors
 
-STROKE = 0.003  # m, the paper's 3 mm strokes
+STROKE = 0.003  # m, the paper's 3 mm paths (Asterisk, Testing Paths; Sec. III-C)
 APPROACH_HEIGHT = 1e-4  # m above first touch where an episode starts and ends
 
 
@@ -42,14 +42,14 @@ def _out_and_back(angle_deg: float, length: float = STROKE) -> list[np.ndarray]:
   return _line((0, 0), (length * np.cos(a), length * np.sin(a))) + [np.zeros(2)]
 
 
-def _route(name: str, repeats: int) -> list[np.ndarray]:
+def _route(name: str, repeats: int, stroke: float = STROKE) -> list[np.ndarray]:
   pts: list[np.ndarray] = [np.zeros(2)]
   if name == "x_stroke":
     for _ in range(repeats):
-      pts += [np.array([STROKE, 0]), np.array([-STROKE, 0]), np.zeros(2)]
+      pts += [np.array([stroke, 0]), np.array([-stroke, 0]), np.zeros(2)]
   elif name == "y_stroke":
     for _ in range(repeats):
-      pts += [np.array([0, STROKE]), np.array([0, -STROKE]), np.zeros(2)]
+      pts += [np.array([0, stroke]), np.array([0, -stroke]), np.zeros(2)]
   elif name == "asterisk":
     for ang in range(0, 360, 45):
       pts += _out_and_back(ang)[1:]
@@ -118,7 +118,8 @@ class Episode:
   phase: np.ndarray
 
 
-def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10) -> Episode:
+def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10,
+            stroke: float = STROKE) -> Episode:
   """The CNC commands of one path at one indentation.
 
   Args:
@@ -127,6 +128,7 @@ def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10
     feed: feed rate, m/s.
     dt: sample period, s.
     repeats: presses for z_press; back-and-forth strokes for x_stroke / y_stroke.
+    stroke: amplitude of x_stroke / y_stroke, m (the other paths' sizes are the paper's).
   """
   step = feed * dt
   z_path = np.array([[APPROACH_HEIGHT], [-z_level]])
@@ -138,7 +140,7 @@ def episode(path: str, z_level: float, feed: float, dt: float, repeats: int = 10
     target = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
     phase = (z < 0).astype(np.int8)
     return Episode(path, z_level, target, phase)
-  xy = _resample(np.array(_route(path, repeats)), step)
+  xy = _resample(np.array(_route(path, repeats, stroke)), step)
   hold = int(round(0.05 / dt))  # 50 ms to settle at each end of the press
   parts = [np.column_stack([np.zeros((len(down), 2)), down]),
            np.column_stack([np.zeros((hold, 2)), np.full(hold, -z_level)]),

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 
 from util import errors, fields
-from util.fields import setting
+from util.fields import Sourced, setting
 from sim.effects import Step, active, rng_for, run_steps, wander
 from sim.shell import effects as fx
 from sim.shell.effects import EFFECTS
@@ -40,9 +40,10 @@ class Photointerrupter:
     gain_spread, offset_spread: for the `unit_spread` effect: relative sd of a, sd of b
       (counts).
     stray_ir, stray_ir_time: for the `stray_ir` effect: rms offset (counts) of each of its
-      two parts and their correlation time (s). 20 counts: the top of the 3-22 counts per sensor that
-      the paper's Table II resolutions amount to through the calibration (`shell_table2`);
-      a 10 s rest sees less than the full rms of a 5 s process. The time is assumed.
+      two parts and their correlation time (s). 20 counts: near the top of the 3-22 counts
+      per sensor that the paper's Table II resolutions amount to through the calibration
+      (`shell_table2`; the sourced range); a 10 s rest sees less than the full rms of a 5 s
+      process. The time is assumed.
   """
   a: float = setting(7.7, "(0, 1000]", "counts m")
   b: float = setting(50.0, "[-4095, 4095]", "counts")
@@ -51,7 +52,7 @@ class Photointerrupter:
   window: tuple[float, float] = setting((0.002, 0.004), "(0, 0.05)", "m")
   gain_spread: float = setting(0.15, "[0, 10]")
   offset_spread: float = setting(30.0, "[0, 1e4)", "counts")
-  stray_ir: float = setting(20.0, "[0, 1e4)", "counts")
+  stray_ir: float = setting(20.0, "[0, 1e4)", "counts", sourced=Sourced(3.0, 22.0))
   stray_ir_time: float = setting(5.0, "(0, 1e4]", "s")
 
   def relations(self) -> fields.Relations:
