@@ -65,11 +65,27 @@ class Target:
 def read_targets(path: pathlib.Path, scorable: Callable[[str, str, str, str], bool],
                  allowed: str) -> tuple[Target, ...]:
   """Targets from a metrics.csv (this project's, or your own in its columns: group, method,
-  axis, metric, value): every row `scorable` accepts; other rows are left out. DataError
-  saying which rows count (`allowed`) if none is left."""
-  rows = outputs.read_rows(path)
-  out = tuple(Target(r.group, r.method, r.axis, r.metric, r.value) for r in rows
-              if scorable(r.group, r.method, r.axis, r.metric) and math.isfinite(r.value))
+  axis, metric, value; lines starting with "#" are comments): every row `scorable` accepts;
+  other rows are left out. DataError naming the file and line for a table it cannot read,
+  and saying which rows count (`allowed`) if none is left."""
+  import csv
+  lines = [line for line in pathlib.Path(path).read_text().splitlines()
+           if not line.lstrip().startswith("#")]
+  reader = csv.DictReader(lines)
+  columns = ("group", "method", "axis", "metric", "value")
+  if not set(columns) <= set(reader.fieldnames or ()):
+    raise errors.DataError(f"targets={path}: its columns are {reader.fieldnames}; needed "
+                           f"{', '.join(columns)} (as a run's metrics.csv has them)")
+  out = []
+  for n, r in enumerate(reader, start=2):
+    try:
+      value = float(r["value"])
+    except (TypeError, ValueError):
+      raise errors.DataError(f"targets={path}: row {n} has value {r['value']!r}: allowed a "
+                             f"number") from None
+    if scorable(r["group"], r["method"], r["axis"], r["metric"]) and math.isfinite(value):
+      out.append(Target(r["group"], r["method"], r["axis"], r["metric"], value))
+  out = tuple(out)
   if not out:
     raise errors.DataError(f"targets={path}: no row it can score; allowed rows: {allowed}")
   return out

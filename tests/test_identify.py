@@ -72,10 +72,10 @@ def test_every_preset_value_lies_inside_its_sourced_range():
 
 
 def test_the_nominal_preset_is_the_protocols_own_settings(capsys):
-  plain = run.main(["asterisk_path", "--quick", "--check"])
+  # footpad_dataset runs the protocol's own settings when no preset is given
+  assert run.main(["footpad_dataset", "--quick", "--check"]) == 0
   without = capsys.readouterr().out
-  assert plain == 0
-  assert run.main(["asterisk_path", "--quick", "--check", "--preset", "nominal"]) == 0
+  assert run.main(["footpad_dataset", "--quick", "--check", "--preset", "nominal"]) == 0
   assert capsys.readouterr().out == without
 
 
@@ -100,13 +100,14 @@ LS_ONLY = ("group,method,axis,metric,value,spread\n"
            "LS_train,LS,X,nrmse_pct,5.0,\nLS_train,LS,Y,range,200,\nresults,LS,Z,r2_pct,99,\n")
 
 
-@pytest.mark.slow  # four trials of one Z level with no networks: about 40 s
+@pytest.mark.slow  # seven trials of one Z level, friction and noise alone, no networks: ~20 s
 def test_an_interrupted_study_resumes_to_the_same_designs(tmp_path, capsys):
   (tmp_path / "t.csv").write_text(LS_ONLY)
   common = ["identify_footpad", "--quick", "--no-progress", "--set", f"targets={tmp_path}/t.csv",
-            "--set", "scene.z_levels=0.001", "--set", "startup=1"]
+            "--set", "scene.z_levels=0.001", "--set", "startup=1",
+            "--set", "scene.effects=friction,pressure_friction,stick_slip,sensor_noise"]
   assert run.main(common + ["--out", str(tmp_path / "straight"), "--set", "trials=4"]) == 0
-  assert run.main(common + ["--out", str(tmp_path / "resumed"), "--set", "trials=3"]) == 0
+  assert run.main(common + ["--out", str(tmp_path / "resumed"), "--set", "trials=2"]) == 0
   assert run.main(common + ["--out", str(tmp_path / "resumed"), "--set", "trials=4"]) == 0
   capsys.readouterr()
 
@@ -120,5 +121,5 @@ def test_an_interrupted_study_resumes_to_the_same_designs(tmp_path, capsys):
   # a study of other targets is not mixed into the stored one
   (tmp_path / "u.csv").write_text(LS_ONLY.replace("5.0", "6.0"))
   other = [a if a != f"targets={tmp_path}/t.csv" else f"targets={tmp_path}/u.csv" for a in common]
-  assert run.main(other + ["--out", str(tmp_path / "straight"), "--set", "trials=5"]) == 2
+  assert run.main(other + ["--out", str(tmp_path / "straight"), "--set", "trials=4"]) == 2
   assert "holds a study of other settings" in capsys.readouterr().err

@@ -1,8 +1,9 @@
 """Every code block of README.md, run as a user would paste it, in order, in an empty folder:
 csv blocks are written to the file their first comment names, python blocks run in one
 namespace, `python -m calibrate` lines run, `python -m benchmarks.run` lines are checked
-(`--check`: name, settings and folder, without the run's minutes), and no inline command is
-broken over two lines."""
+(`--check`: name, settings and folder, without the run's minutes) except an identification
+of a user's own table (`--set targets=...`), which runs, and no inline command is broken
+over two lines."""
 
 import pathlib
 import re
@@ -38,7 +39,8 @@ def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
   from calibrate import __main__ as calibrate_cli
   monkeypatch.chdir(tmp_path)
   namespace: dict = {}
-  ran = {"python": 0, "csv": 0, "calibrate": 0, "benchmarks": 0, "render": 0}
+  ran = {"python": 0, "csv": 0, "calibrate": 0, "benchmarks": 0, "render": 0,
+         "identification": 0}
   for lang, body in _blocks():
     if lang == "csv":
       name = re.match(r"#\s*([\w.-]+\.csv)", body).group(1)
@@ -53,6 +55,10 @@ def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
         if module == "calibrate":
           assert calibrate_cli.main(args) == 0, argv
           ran["calibrate"] += 1
+        elif module == "benchmarks.run" and any(a.startswith("targets=") for a in args):
+          # the identification of a user's own table: run for real (a small table, seconds)
+          assert run.main(args + ["--no-progress"]) == 0, (argv, capsys.readouterr().err)
+          ran["identification"] += 1
         elif module == "benchmarks.run":
           assert run.main(args + ["--check"]) == 0, (argv, capsys.readouterr().err)
           ran["benchmarks"] += 1
@@ -67,6 +73,7 @@ def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
   assert all(v for k, v in ran.items() if k != "render"), ran
   assert ran["render"] == 0 or (tmp_path / "footpad.png").exists()
   assert (tmp_path / "my_pad_c" / "estimator.c").exists()
+  assert (tmp_path / "my_identification" / "preset.json").exists()
   assert namespace["forces"].shape[1] == 3 and (namespace["sd"] > 0).all()
 
 

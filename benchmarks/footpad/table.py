@@ -416,7 +416,10 @@ for _name, _paths, _what in (
     ("circular_path", ("circular",), "LS, LSANN and NN-only trained on the Circular path"),
     ("footpad_table1", ("asterisk", "circular"), "the paper's full protocol (Asterisk + "
                                                  "Circular training), Table I")):
+  # Table I runs at the paper preset unless told otherwise: its printed table sits beside
+  # the paper's, and the preset is the design identified from that table (--preset nominal
+  # for the sourced defaults)
   register(_name, "footpad: " + _what, settings=footpad.protocol_settings,
-           presets=footpad.presets, fixed=footpad.FIXED,
+           presets=footpad.presets, fixed=footpad.FIXED, default_preset="paper",
            tags=("footpad", "paper", "calibration"))(
       functools.partial(run_table, nn_paths=_paths))

@@ -80,7 +80,7 @@ def evaluate(board, quick: bool, seed: int, use_cache: bool = True) -> dict:
 def settings(quick: bool, seed: int) -> identification.Settings:
   from sim.shell import protocol
   # a trial takes about 1 s with --quick, about 10 s at the paper's frames (2 cores)
-  return identification.Settings(trials=100, scene=protocol.base(quick, seed))
+  return identification.Settings(trials=60, scene=protocol.base(quick, seed))
 
 
 FIXED = {"scene.frames": "the protocol runs the paper's frame counts (a tenth with --quick)",
