@@ -181,13 +181,19 @@ def run(ctx):
   def one(design: dict, stop) -> dict:
     scene = settings_lib.apply(s.scene, presets.overrides(design))
     return evaluate(scene, seeds, workers, networks, ctx.use_cache, stop)
-  nominal = presets.nominal_design()
+  # a parameter whose effect the scene leaves off changes nothing: it is not searched
+  searched = tuple(p for p in presets.parameters()
+                   if not s.scene.unread("params.prony" if p.key.startswith("prony.") else p.key))
+  left = [p.key for p in presets.parameters() if p not in searched]
+  nominal = {k: v for k, v in presets.nominal_design().items()
+             if k == "layout" or k in {p.key for p in searched}}
   spec = identification.Study(
-      "identify_footpad", presets.parameters(), {"layout": presets.LAYOUTS},
+      "identify_footpad", searched, {"layout": presets.LAYOUTS},
       (nominal, {**nominal, "layout": "turned"}), one,
       lambda design, command, note: presets.preset("identified", "the study's best design",
                                                    design, command, note),
       {"scene": type(s.scene).config(s.scene), "seeds": s.network_seeds})
   describe = (f"targets {'the paper' if not s.targets else s.targets}, networks the median "
-              f"of {s.network_seeds} seed(s), {len(s.scene.z_levels)} Z levels")
+              f"of {s.network_seeds} seed(s), {len(s.scene.z_levels)} Z levels" +
+              (f"; not searched, their effects off: {', '.join(left)}" if left else ""))
   return identification.run(ctx, spec, targets, s.trials, s.sampler, s.startup, describe)
