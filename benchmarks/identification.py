@@ -298,11 +298,9 @@ def _sampler(kind: str, startup: int, seed: int, finished: int, study):
   trial_seed = int(np.random.SeedSequence(seed, spawn_key=(21, finished)).generate_state(1)[0])
   if finished < startup or not _complete(study):
     return optuna.samplers.QMCSampler(seed=seed, scramble=True)
-  if kind == "cmaes":
-    best = min(_complete(study), key=lambda t: t.value)
+  if kind == "cmaes":  # it rebuilds its search distribution from the stored trials
     return optuna.samplers.CmaEsSampler(
-        seed=trial_seed, independent_sampler=optuna.samplers.RandomSampler(seed=trial_seed),
-        x0={k: v for k, v in best.params.items() if not isinstance(v, str)})
+        seed=trial_seed, independent_sampler=optuna.samplers.RandomSampler(seed=trial_seed))
   return optuna.samplers.TPESampler(seed=trial_seed, multivariate=True, group=True,
                                     n_startup_trials=0)
 

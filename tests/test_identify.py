@@ -9,6 +9,7 @@ import pytest
 from benchmarks import identification, run
 from benchmarks.footpad import identify
 from sim.footpad import paper, presets
+from sim.shell import presets as presets_shell
 
 
 def _result_at(targets, shift: float = 0.0, points: float = 0.0) -> dict:
@@ -123,3 +124,15 @@ def test_an_interrupted_study_resumes_to_the_same_designs(tmp_path, capsys):
   other = [a if a != f"targets={tmp_path}/t.csv" else f"targets={tmp_path}/u.csv" for a in common]
   assert run.main(other + ["--out", str(tmp_path / "straight"), "--set", "trials=4"]) == 2
   assert "holds a study of other settings" in capsys.readouterr().err
+
+
+def test_cma_es_moves_the_shell_within_its_ranges(tmp_path, capsys):
+  """The other sampler: CMA-ES (Optuna's, via `cmaes`) from the best trial so far."""
+  out = tmp_path / "cma"
+  assert run.main(["identify_shell", "--quick", "--no-progress", "--out", str(out), "--set",
+                   "sampler=cmaes", "--set", "trials=4", "--set", "startup=2"]) == 0
+  capsys.readouterr()
+  found = json.loads((out / "preset.json").read_text())
+  assert found["trials"] == 4 and math.isfinite(found["score"])
+  for p in presets_shell.parameters():
+    assert p.lo <= found["design"][p.key] <= p.hi, p.key
