@@ -1,6 +1,8 @@
 """Sweeps give the same results whatever runs them, resume, and survive failing workers."""
 
 import os
+import pathlib
+import time
 
 import numpy as np
 import pytest
@@ -119,3 +121,36 @@ def test_a_killed_sweep_leaves_no_worker_running(tmp_path):
     time.sleep(0.2)
   os.kill(worker, signal.SIGKILL)
   raise AssertionError("the worker outlived its killed parent by 10 s")
+
+
+def test_ctrl_c_ends_idle_and_busy_workers_without_a_traceback(tmp_path):
+  """A terminal's Ctrl-C reaches the command and its workers (one process group): each
+  worker ends at once and silently, so the command's one line is all that is printed."""
+  import os
+  import signal
+  import subprocess
+  import sys
+  script = ("import concurrent.futures, multiprocessing, os, sys, time\n"
+            "from util import workers\n"
+            "if __name__ == '__main__':\n"
+            "  ctx = multiprocessing.get_context('spawn')\n"
+            "  try:\n"
+            "    with concurrent.futures.ProcessPoolExecutor(2, mp_context=ctx,\n"
+            "        initializer=workers.die_with_parent, initargs=(os.getpid(),)) as pool:\n"
+            "      for f in [pool.submit(time.sleep, 0.5) for _ in range(2)]:\n"
+            "        f.result()  # two workers started, both idle now\n"
+            "      busy = pool.submit(time.sleep, 60)\n"
+            "      print('ready', flush=True)\n"
+            "      time.sleep(60)\n"
+            "  except KeyboardInterrupt:\n"
+            "    print('interrupted', file=sys.stderr)\n")
+  (tmp_path / "parent.py").write_text(script)
+  env = {**os.environ, "PYTHONPATH": str(pathlib.Path(__file__).resolve().parents[1])}
+  proc = subprocess.Popen([sys.executable, str(tmp_path / "parent.py")], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, start_new_session=True, env=env)
+  proc.stdout.readline()
+  time.sleep(1.0)  # one worker sleeps in its job, the other waits idle for one
+  os.killpg(proc.pid, signal.SIGINT)
+  _, err = proc.communicate(timeout=20)
+  assert "Traceback" not in err, err
+  assert err.strip() == "interrupted"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import threading
 import time
 from typing import Optional
@@ -13,7 +14,11 @@ from typing import Optional
 def die_with_parent(parent: int) -> None:
   """A worker's initializer: the worker exits once the process that started it is gone.
   Without it, a command killed (not Ctrl-C'd) leaves its workers computing to the end, each
-  holding a core (seen on a shared machine)."""
+  holding a core (seen on a shared machine). Ctrl-C, which a terminal sends to the workers
+  with their command, ends a worker at once and silently: the command says the one line
+  (an idle worker printed a KeyboardInterrupt traceback from its job queue, measured)."""
+  signal.signal(signal.SIGINT, lambda *_: os._exit(130))
+
   def watch():
     while os.getppid() == parent:
       time.sleep(1.0)
