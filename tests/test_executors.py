@@ -130,9 +130,12 @@ def test_ctrl_c_ends_idle_and_busy_workers_without_a_traceback(tmp_path):
   import signal
   import subprocess
   import sys
-  script = ("import concurrent.futures, multiprocessing, os, sys, time\n"
+  # a command started in the background by a shell ignores SIGINT: this one takes Ctrl-C as
+  # a terminal's foreground command does
+  script = ("import concurrent.futures, multiprocessing, os, signal, sys, time\n"
             "from util import workers\n"
             "if __name__ == '__main__':\n"
+            "  signal.signal(signal.SIGINT, signal.default_int_handler)\n"
             "  ctx = multiprocessing.get_context('spawn')\n"
             "  try:\n"
             "    with concurrent.futures.ProcessPoolExecutor(2, mp_context=ctx,\n"

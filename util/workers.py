@@ -17,7 +17,8 @@ def die_with_parent(parent: int) -> None:
   holding a core (seen on a shared machine). Ctrl-C, which a terminal sends to the workers
   with their command, ends a worker at once and silently: the command says the one line
   (an idle worker printed a KeyboardInterrupt traceback from its job queue, measured)."""
-  signal.signal(signal.SIGINT, lambda *_: os._exit(130))
+  if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # a command that ignores it keeps
+    signal.signal(signal.SIGINT, lambda *_: os._exit(130))  # workers that ignore it too
 
   def watch():
     while os.getppid() == parent:
