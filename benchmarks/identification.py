@@ -91,6 +91,13 @@ def read_targets(path: pathlib.Path, scorable: Callable[[str, str, str, str], bo
   return out
 
 
+def targets_of(s: "Settings", scorable: Callable[[str, str, str, str], bool], allowed: str,
+               paper: Callable[[], tuple[Target, ...]]) -> tuple[Target, ...]:
+  """The targets of the settings `s`: its `targets` file's rows (`read_targets`), or the
+  paper's."""
+  return read_targets(pathlib.Path(s.targets), scorable, allowed) if s.targets else paper()
+
+
 def measured(result: dict, t: Target) -> float:
   """The evaluation's value of the target cell `t` (NaN where it holds none)."""
   try:
@@ -249,7 +256,6 @@ def _one_trial(ctx, study, spec: Study, trial, targets) -> None:
     raise
   else:
     value = score(result, targets)
-    ctx.used(*result.pop("recordings", ()))
     study.set_user_attr(f"trial{trial.number}", result)
     study.tell(trial, value)
     line = f"score {value:.3f}"

@@ -122,11 +122,10 @@ class Benchmark:
     if name is None:
       return None, {}
     known = self.presets() if self.presets else {}
+    if not known:
+      raise errors.SettingError(f"--preset {name}: {self.name} takes no preset")
     if name not in known:
-      raise errors.SettingError(
-          f"--preset {name}: {self.name} takes no preset" if not known else
-          str(errors.unknown("preset", name, known,
-                             f"python -m benchmarks.run {self.name} --help")))
+      raise errors.unknown("preset", name, known, f"python -m benchmarks.run {self.name} --help")
     preset = known[name]
     return preset, {self.preset_prefix + k: v for k, v in preset.overrides().items()}
 

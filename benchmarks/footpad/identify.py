@@ -35,7 +35,6 @@ sits, and the best trial's table beside the targets and beside the nominal desig
 from __future__ import annotations
 
 import dataclasses
-import pathlib
 
 import numpy as np
 
@@ -86,18 +85,17 @@ def needs_networks(targets) -> bool:
   return any(t.method in ("LSANN", "NN") or t.group == "ratio" for t in targets)
 
 
-def evaluate(scene, seeds: list[int], workers: int, networks: bool = True,
-             use_cache: bool = True, stop=None) -> dict:
+def evaluate(ctx, scene, seeds: list[int], workers: int, networks: bool = True,
+             stop=None) -> dict:
   """The paper's protocol on `scene`: LS on the strokes (its scores on them and their force
   ranges), then, with `networks`, LSANN and NN-only from each of `seeds` (`workers` at once),
   all tested on the test paths. `stop(partial)` is called between the two and may raise
   to end the trial (pruned). Returns {"LS_train": {"LS": {axis: ...}}, "results": {method:
-  {axis: ...}}, "ratio": {"time_lsann_over_nn"}, "recordings"}: the networks' scores are
-  medians over the seeds."""
+  {axis: ...}}, "ratio": {"time_lsann_over_nn", "epochs_lsann_over_nn"}}: the networks'
+  scores are medians over the seeds."""
   from calibrate import estimators, metrics, parallel
-  from sim.footpad import protocol, scene as scene_lib
-  recs = {name: scene_lib.generate(s, None, use_cache)[0]
-          for name, s in protocol.scenes(scene).items()}
+  from sim.footpad import protocol
+  recs = {name: rec for name, (rec, _) in footpad.recordings(ctx, scene).items()}
   strokes, net, test = protocol.splits(recs["train"], recs["test"]).values()
   truth, forces = test.wrench[:, :3], strokes.wrench[:, :3]
   ls = estimators.fit(estimators.Kind.LS, strokes.counts, forces)
@@ -105,8 +103,7 @@ def evaluate(scene, seeds: list[int], workers: int, networks: bool = True,
   for i, ax in enumerate(AXES):
     train[ax]["range"] = float(np.ptp(forces[:, i]))
   out = {"LS_train": {"LS": train},
-         "results": {"LS": metrics.summary(ls.predict(test.counts), truth, AXES)},
-         "recordings": [r.stem for r in recs.values() if r.stem]}
+         "results": {"LS": metrics.summary(ls.predict(test.counts), truth, AXES)}}
   if stop is not None:
     stop(out)
   if not networks:
@@ -171,8 +168,7 @@ def run(ctx):
   from sim import settings as settings_lib
   from sim.footpad import presets
   s = ctx.settings
-  targets = (identification.read_targets(pathlib.Path(s.targets), scorable, ALLOWED)
-             if s.targets else paper_targets())
+  targets = identification.targets_of(s, scorable, ALLOWED, paper_targets)
   networks = needs_networks(targets)
   seeds = [int(x.generate_state(1)[0])
            for x in np.random.SeedSequence(ctx.seed, spawn_key=(22,)).spawn(s.network_seeds)]
@@ -180,7 +176,7 @@ def run(ctx):
 
   def one(design: dict, stop) -> dict:
     scene = settings_lib.apply(s.scene, presets.overrides(design))
-    return evaluate(scene, seeds, workers, networks, ctx.use_cache, stop)
+    return evaluate(ctx, scene, seeds, workers, networks, stop)
   # a parameter whose effect the scene leaves off changes nothing: it is not searched
   searched = tuple(p for p in presets.parameters()
                    if not s.scene.unread("params.prony" if p.key.startswith("prony.") else p.key))

@@ -19,8 +19,6 @@ Trial 0 is the protocol's own design with stray infrared light at its nominal si
 
 from __future__ import annotations
 
-import dataclasses
-import pathlib
 import numpy as np
 
 from benchmarks import identification, shell
@@ -31,7 +29,6 @@ AXES = shell.AXES
 ALLOWED = ("group results with method POLY, an axis of Fx, Fy, Fz, Mx, My, Mz and metric "
            "median_pct, worst_pct or resolution (N, N m); group results with no method and "
            "metric range (N, N m)")
-REST_FRAMES = 1000  # 10 s at rest, as shell_table2
 
 
 def paper_targets() -> tuple[Target, ...]:
@@ -51,30 +48,24 @@ def scorable(group: str, method: str, axis: str, metric: str) -> bool:
   return method == "POLY" and metric in ("median_pct", "worst_pct", "resolution")
 
 
-def evaluate(board, quick: bool, seed: int, use_cache: bool = True) -> dict:
-  """The paper's protocol on the scene `board`: the cubic calibration, its Table I scores on
-  the test run, the test loads' ranges and the standard deviation at rest per axis."""
-  from calibrate import estimators, metrics
-  from sim.shell import protocol, scene as scene_lib
-  runs = {name: scene_lib.generate(s, None, use_cache)[0]
-          for name, s in protocol.scenes(board, quick, seed).items()}
-  cal, test = runs["calibration"], runs["test"]
-  est = estimators.fit(estimators.Kind.POLY, cal.counts, cal.wrench)
-  pred = est.predict(test.counts)
+def evaluate(ctx, board) -> dict:
+  """The paper's protocol on the scene `board` as `shell_table1` and `shell_table2` run it:
+  the cubic calibration's Table I scores on the test run, the test loads' ranges and the
+  standard deviation at rest per axis."""
+  from benchmarks.shell import table2
+  from calibrate import metrics
+  fit = shell.calibrated(ctx, board)
+  test = fit.runs["test"]
+  pred = fit.estimator.predict(test.counts)
   median = metrics.wrench_median_pct(pred, test.wrench)
   worst = metrics.worst_pct_of_range(pred, test.wrench)
-  rest_seed = int(np.random.SeedSequence(seed).generate_state(3)[2])
-  rest, _ = scene_lib.generate(dataclasses.replace(
-      protocol.scenes(board, quick, seed)["test"], loading="rest", frames=REST_FRAMES,
-      seed=rest_seed), use_cache=use_cache)
-  resolution = np.std(est.predict(rest.counts), axis=0)
+  _, resolution = table2.at_rest(ctx, fit)
   span = np.ptp(test.wrench, axis=0)
   return {"results": {
       "POLY": {a: {"median_pct": float(median[i]), "worst_pct": float(worst[i]),
                    "resolution": float(resolution[i])} for i, a in enumerate(AXES)},
       "": {a: {"range": float(span[i])} for i, a in enumerate(AXES)}},
-      "out_of_window": float(test.meta["out_of_window"]),
-      "recordings": [r.stem for r in (*runs.values(), rest) if r.stem]}
+      "out_of_window": float(test.meta["out_of_window"])}
 
 
 def settings(quick: bool, seed: int) -> identification.Settings:
@@ -97,12 +88,10 @@ def run(ctx):
   from sim.shell import presets as presets_lib
   from sim.shell.scene import config as scene_config
   s = ctx.settings
-  targets = (identification.read_targets(pathlib.Path(s.targets), scorable, ALLOWED)
-             if s.targets else paper_targets())
+  targets = identification.targets_of(s, scorable, ALLOWED, paper_targets)
 
   def one(design: dict, stop) -> dict:
-    board = settings_lib.apply(s.scene, presets_lib.overrides(design))
-    return evaluate(board, ctx.quick, ctx.seed, ctx.use_cache)
+    return evaluate(ctx, settings_lib.apply(s.scene, presets_lib.overrides(design)))
   nominal = {p.key: p.nominal for p in presets_lib.parameters()}
   spec = identification.Study(
       "identify_shell", presets_lib.parameters(), {}, (nominal,), one,

@@ -39,19 +39,26 @@ def count_noise_equivalent(est, counts: np.ndarray, resolution: np.ndarray
   return (resolution / np.linalg.norm(jac, axis=1), resolution / np.abs(jac.sum(axis=1)))
 
 
+def at_rest(ctx, fit) -> tuple:
+  """(the run at rest of the calibration `fit`'s test scene, 10 s with no load; the standard
+  deviation of each calibrated axis there, Table II's resolution (6,))."""
+  from sim.shell import scene as scene_lib
+  rest_seed = int(np.random.SeedSequence(ctx.seed).generate_state(3)[2])
+  rest, _ = scene_lib.generate(dataclasses.replace(fit.scenes["test"], loading="rest",
+                                                   frames=REST_FRAMES, seed=rest_seed),
+                               use_cache=ctx.use_cache)
+  ctx.used(rest)
+  return rest, np.std(fit.estimator.predict(rest.counts), axis=0)
+
+
 @register("shell_table2", "shell paper Table II: range and resolution (std at rest) per axis",
           settings=shell.protocol_settings, presets=shell.presets, fixed=shell.FIXED,
           tags=("shell", "paper", "calibration", "fast"))
 def run(ctx) -> dict:
-  from sim.shell import scene as scene_lib
   fit = shell.calibrated(ctx)
   runs, est = fit.runs, fit.estimator
   scene = fit.scenes["test"]
-  rest_seed = int(np.random.SeedSequence(ctx.seed).generate_state(3)[2])
-  rest, _ = scene_lib.generate(dataclasses.replace(scene, loading="rest", frames=REST_FRAMES,
-                                                   seed=rest_seed), use_cache=ctx.use_cache)
-  ctx.used(rest)
-  resolution = np.std(est.predict(rest.counts), axis=0)
+  rest, resolution = at_rest(ctx, fit)
   span = np.ptp(runs["test"].wrench, axis=0)
   unit = shell.PRINT_UNITS
   ctx.print(f"{'axis':5s} {'range':>16s} {'resolution':>18s}   (N or mN m; [paper], Nano43)")

@@ -10,7 +10,5 @@ TABLE1 = {
 }
 LS_TRAIN_NRMSE = {"Z": 0.42, "Y": 5.72, "X": 9.63}  # Sec. III-B: the linear fit, its strokes
 LS_TRAIN_RANGE = {"Z": 221.05, "Y": 233.35, "X": 218.99}  # N, Sec. III-B: the ranges of that data
-# N: the test paths' force ranges, Table I's RMSE over its NRMSE (LSANN; NN-only's agree)
-TEST_RANGE = {ax: TABLE1["LSANN"][ax][0] / TABLE1["LSANN"][ax][1] * 100 for ax in ("Z", "Y", "X")}
 MINUTES = {"LSANN": 59.0, "NN": 144.5}  # training time
 TIME_RATIO = MINUTES["LSANN"] / MINUTES["NN"]  # LSANN over NN-only: 0.41 (-59.2 %)
