@@ -258,7 +258,7 @@ def _hidden(text: str):
 
 def _config(args):
   """(network settings, widths to choose from) of the options."""
-  from calibrate import mlp
+  from calibrate.parts import mlp
   auto = args.hidden == "auto"
   config = mlp.LMConfig(hidden=10 if auto else args.hidden,
                         epochs=1000 if args.epochs is None else args.epochs,
@@ -269,13 +269,13 @@ def _config(args):
 
 def _gru_config(args):
   """The recurrent network's settings of the options (--hidden, --epochs as its steps)."""
-  from calibrate import recurrent
+  from calibrate.parts import gru
   if args.method != "gru":
-    return recurrent.GRUConfig()
+    return gru.GRUConfig()
   if args.hidden == "auto":
     raise errors.SettingError("--hidden auto chooses the width of lsann and nn: give gru a "
                               "number of hidden units (--hidden 8)")
-  config = recurrent.GRUConfig(hidden=args.hidden, **(
+  config = gru.GRUConfig(hidden=args.hidden, **(
       {} if args.epochs is None else {"steps": args.epochs}))
   config.validate()
   return config
@@ -433,12 +433,12 @@ def fit(args) -> int:
     if args.dt is None:
       est = estimators.fit(kind, x, y, seed=args.seed, **names, **common)
     else:
-      from calibrate import temporal
+      from calibrate.parts import memory
       est = estimators.fit_temporal(
           kind, x, y, args.dt, segments=args.recording, seed=args.seed,
           taus=None if args.history == "auto" else (args.history or ()),
           differences=args.history is not None,
-          tare=None if args.track_drift is None else temporal.Tare(args.track_drift),
+          tare=None if args.track_drift is None else memory.Tare(args.track_drift),
           gru=_gru_config(args), **names, **common)
     est = _with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave

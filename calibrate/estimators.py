@@ -19,10 +19,14 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from calibrate import linear, mlp, recurrent, splits
-from calibrate import poly as poly_lib
-from calibrate import temporal
-from util import errors, files
+from calibrate import compose, splits, store
+from calibrate.info import INTERVAL_GRID, Info, data_digest, group_means, held_out  # noqa: F401
+from calibrate.parts import gru as recurrent
+from calibrate.parts import linear, mlp
+from calibrate.parts import memory as temporal
+from calibrate.parts import poly as poly_lib
+from calibrate.parts.base import Part, Stream
+from util import errors
 
 
 class Kind(enum.Enum):
@@ -39,183 +43,76 @@ class OutOfRangeWarning(UserWarning):
 
 
 @dataclasses.dataclass(frozen=True)
-class Info:
-  """What an estimator was fitted on, saved with it.
-
-  Attributes:
-    inputs, outputs: names of the input channels (C) and the outputs (A).
-    input_units, output_units: their units ("counts", "N", "N m"...).
-    input_lo, input_hi: (C,) the training range of every input channel.
-    residual_sd: (A,) spread (standard deviation) of the residual on held-out validation
-      samples, output units: the estimator's own error, as measured when it was fitted.
-    samples: training samples.
-    data_sha256: SHA-256 of the training inputs and targets (float64 bytes).
-    settings: the method and its settings (JSON-able).
-    interval_abs: (P, A) quantiles, at the probabilities `INTERVAL_GRID`, of the absolute
-      residual on held-out groups (grouped cross-validation) less its group's mean, output
-      units; None when the fit ran no cross-validation. `half_width` turns it into the
-      interval.
-    interval_n: the held-out samples behind `interval_abs`.
-    interval_offsets: (G, A) the mean held-out residual of every group (a recording's
-      offset, drift, pose), output units; None in older files (their `interval_abs` holds
-      the whole residual).
-    validation: how the held-out data were chosen and what they gave (JSON-able): the split,
-      its groups, the folds, the cross-validated RMSE per output, outputs where LSANN kept
-      only its LS stage.
-    output_lo, output_hi: (A,) the training range of every output (None in older files):
-      truth beyond it is target extrapolation, where every method under-reaches.
-  """
-  inputs: tuple[str, ...]
-  outputs: tuple[str, ...]
-  input_units: tuple[str, ...]
-  output_units: tuple[str, ...]
-  input_lo: np.ndarray
-  input_hi: np.ndarray
-  residual_sd: np.ndarray
-  samples: int
-  data_sha256: str
-  settings: dict
-  interval_abs: Optional[np.ndarray] = None
-  interval_n: int = 0
-  validation: dict = dataclasses.field(default_factory=dict)
-  output_lo: Optional[np.ndarray] = None
-  output_hi: Optional[np.ndarray] = None
-  interval_offsets: Optional[np.ndarray] = None
-
-  def half_width(self, level: float) -> np.ndarray:
-    """(A,) half-width of the interval at `level` (0.5 to 0.999), per output.
-
-    Two parts, added in quadrature: within a recording, the split-conformal quantile (the
-    ceil((n + 1) level)-th smallest of the n held-out absolute residuals less their group's
-    mean); between recordings, how far a new recording's mean error may lie, Student's t
-    at `level` with G degrees of freedom times the RMS of the G groups' mean errors. A
-    conformal quantile over samples alone treats a recording's thousands of samples as
-    thousands of draws when its offset is one draw: measured on the footpad's sessions, it
-    covered 2-100 % of a new session's samples at 95 %. The t factor states what G
-    recordings can tell (4.3 at 95 % from 2, 2.3 from 8).
-
-    Raises:
-      errors.DataError when the estimator was fitted without cross-validation.
-    """
-    if self.interval_abs is None:
-      raise errors.DataError("the estimator holds no interval (fitted without grouped "
-                             "cross-validation): fit it again with this version's `fit`")
-    if not 0.5 <= level <= 0.999:
-      raise errors.SettingError(f"interval level {level!r} is out of range: allowed 0.5 to "
-                                f"0.999")
-    p = min(1.0, np.ceil((self.interval_n + 1) * level) / self.interval_n)
-    within = np.array([np.interp(p, INTERVAL_GRID, q) for q in self.interval_abs.T])
-    return np.hypot(within, self.between_width(level))
-
-  def between_width(self, level: float) -> np.ndarray:
-    """(A,) the between-recordings part of `half_width` (zeros in older files)."""
-    offsets = self.interval_offsets
-    if offsets is None or len(offsets) < 2:
-      return np.zeros(len(self.outputs))
-    import scipy.stats
-    t = scipy.stats.t.ppf(0.5 + level / 2, df=len(offsets))
-    return t * np.sqrt(np.mean(offsets ** 2, axis=0))
-
-  def to_json(self) -> dict:
-    return {"inputs": list(self.inputs), "outputs": list(self.outputs),
-            "input_units": list(self.input_units), "output_units": list(self.output_units),
-            "samples": self.samples, "data_sha256": self.data_sha256, "settings": self.settings,
-            "interval_n": self.interval_n, "validation": self.validation}
-
-  def arrays(self) -> dict[str, np.ndarray]:
-    out = {"info_input_lo": self.input_lo, "info_input_hi": self.input_hi,
-           "info_residual_sd": self.residual_sd}
-    if self.interval_abs is not None:
-      out["info_interval_abs"] = self.interval_abs
-    if self.output_lo is not None:
-      out.update(info_output_lo=self.output_lo, info_output_hi=self.output_hi)
-    if self.interval_offsets is not None:
-      out["info_interval_offsets"] = self.interval_offsets
-    return out
-
-  @staticmethod
-  def from_saved(head: dict, arrays: dict[str, np.ndarray]) -> "Info":
-    info = Info(tuple(head["inputs"]), tuple(head["outputs"]), tuple(head["input_units"]),
-                tuple(head["output_units"]), arrays["info_input_lo"], arrays["info_input_hi"],
-                arrays["info_residual_sd"], int(head["samples"]), str(head["data_sha256"]),
-                dict(head["settings"]), arrays.get("info_interval_abs"),
-                int(head.get("interval_n", 0)), dict(head.get("validation", {})),
-                arrays.get("info_output_lo"), arrays.get("info_output_hi"),
-                arrays.get("info_interval_offsets"))
-    c, a = len(info.inputs), len(info.outputs)
-    if (len(info.input_units), info.input_lo.shape, info.input_hi.shape) != (c, (c,), (c,)) or \
-       (len(info.output_units), info.residual_sd.shape) != (a, (a,)):
-      raise ValueError("its names, units and ranges do not fit together")
-    if info.interval_abs is not None and (info.interval_abs.shape != (len(INTERVAL_GRID), a)
-                                          or info.interval_n < 1):
-      raise ValueError("its interval does not fit its outputs")
-    if info.interval_offsets is not None and (info.interval_offsets.ndim != 2
-                                              or info.interval_offsets.shape[1] != a):
-      raise ValueError("its interval's offsets do not fit its outputs")
-    return info
-
-
-# probabilities at which an estimator keeps its held-out absolute residuals' quantiles
-INTERVAL_GRID = np.linspace(0.0, 1.0, 1001)
-
-
-def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
-  """SHA-256 of training data: the float64 bytes of inputs and targets, with their shapes."""
-  return files.array_digest({"inputs": np.asarray(counts, float),
-                             "targets": np.asarray(forces, float)})
-
-
-@dataclasses.dataclass(frozen=True)
 class Estimator:
-  """A fitted estimator: the linear stage and/or the network, how it was trained, what it was
-  fitted on (`info`), and for an ensemble its members (the prediction is their mean)."""
+  """A fitted estimator: a tree of parts (`root`: `calibrate.parts` families composed by
+  `calibrate.compose`), the method a user asked for (`kind`), what it was fitted on
+  (`info`), and how its network's training went (`training`; `trainings`, an ensemble's
+  members' in order)."""
   kind: Kind
-  linear: Optional[linear.LinearFit] = None
-  net: Optional[mlp.MLP] = None
-  training: Optional[mlp.TrainResult] = None
+  root: Part
   info: Optional[Info] = None
-  members: tuple["Estimator", ...] = ()
-  poly: Optional[poly_lib.PolyFit] = None  # POLY with cross terms, in place of `linear`
-  parts: tuple["Estimator", ...] = ()  # AUTO: the candidates kept
-  pick: tuple[int, ...] = ()  # AUTO: for each output, the part that gives it
-  # a temporal front end (`calibrate.temporal`): the stages above then read its features of
-  # the counts, and `info` describes the raw counts
-  memory: Optional[temporal.Memory] = None
-  rnn: Optional[recurrent.GRU] = None  # GRU: the recurrent network on LS's residual
+  training: Optional[object] = None
+  trainings: tuple = ()
 
   @property
   def n_inputs(self) -> int:
     """C, the raw input channels."""
-    if self.memory is not None:
-      return self.memory.channels
-    return self._n_stage_inputs
+    return self.root.n_inputs
 
   @property
-  def _n_stage_inputs(self) -> int:
-    one = self.members[0] if self.members else self.parts[0] if self.parts else self
-    if one.parts:
-      return one.n_inputs
-    if one.poly is not None:
-      return len(one.poly.mean)
-    return len(one.linear.mean) if one.linear is not None else one.net.w1.shape[1] - 1
+  def _stage(self) -> Part:
+    """The stages behind the temporal front end (the root without one)."""
+    return self.root.stage if isinstance(self.root, compose.Chain) else self.root
 
-  def _predict_one(self, counts: np.ndarray, starts: Optional[np.ndarray] = None
-                   ) -> np.ndarray:
-    if self.rnn is not None:  # the recurrent network reads the first of the stages' inputs
-      first = recurrent.starts(None, len(counts)) if starts is None else starts
-      return self.linear.predict(counts) + self.rnn.predict(counts[:, :self.rnn.inputs],
-                                                            first)
-    if self.kind is Kind.NN:
-      return self.net.predict(self._net_view(counts))
-    if self.poly is not None:
-      return self.poly.predict(counts)
-    f = self.linear.predict(counts)
-    return f + self.net.predict(self._net_view(counts)) if self.kind is Kind.LSANN else f
+  # the stages by their old names, read-only
+  @property
+  def memory(self):
+    return self.root.front if isinstance(self.root, compose.Chain) else None
 
-  def _net_view(self, x: np.ndarray) -> np.ndarray:
-    """The columns the network reads: its inputs are the first of the stages' inputs (all
-    of them, unless fitted with `net_inputs`)."""
-    return x[:, :self.net.w1.shape[1] - 1]
+  @property
+  def linear(self):
+    s = self._stage
+    return s.base if isinstance(s, compose.Residual) else \
+        s if isinstance(s, linear.LinearFit) else None
+
+  @property
+  def poly(self):
+    return self._stage if isinstance(self._stage, poly_lib.PolyFit) else None
+
+  @property
+  def net(self):
+    s = self._stage
+    s = s.residual if isinstance(s, compose.Residual) else s
+    return s if isinstance(s, mlp.MLP) else None
+
+  @property
+  def rnn(self):
+    s = self._stage
+    return s.residual if isinstance(s, compose.Residual) and \
+        isinstance(s.residual, recurrent.GRU) else None
+
+  @property
+  def members(self) -> tuple["Estimator", ...]:
+    s = self._stage
+    if not isinstance(s, compose.Mean):
+      return ()
+    runs = self.trainings or (None,) * len(s.members)
+    return tuple(Estimator(Kind(m.label), m, training=t) for m, t in zip(s.members, runs))
+
+  @property
+  def parts(self) -> tuple["Estimator", ...]:
+    s = self._stage
+    return tuple(Estimator(Kind(p.label), p) for p in s.parts) \
+        if isinstance(s, compose.PerOutput) else ()
+
+  @property
+  def pick(self) -> tuple[int, ...]:
+    return self._stage.pick if isinstance(self._stage, compose.PerOutput) else ()
+
+  def guard(self) -> Optional[int]:
+    """AUTO: the index of its LS part, whose plane carries the network parts beyond the
+    training box (None: no LS part, or no network part, or no training range)."""
+    return self._stage.guard if isinstance(self._stage, compose.PerOutput) else None
 
   def predict(self, counts: np.ndarray, return_std: bool = False,
               segments: Optional[np.ndarray] = None, contact: Optional[np.ndarray] = None,
@@ -231,65 +128,18 @@ class Estimator:
     order: `segments` (N,) labels each sample's recording (None: one recording; its filters
     and tares start afresh at each change of label), `contact` (N,) an optional contact flag
     for its tare, `sessions` (N,) the runs of segments its tare carries through
-    (`calibrate.temporal.Memory.features`). A static estimator ignores them.
+    (`calibrate.parts.memory.Memory.features`). A static estimator ignores them.
     """
     counts = linear.check_array(counts, "counts", self.n_inputs)
     self._check_range(counts)
-    starts = None
-    if self.memory is not None:
-      counts = self.memory.features(counts, segments, contact, sessions)
-      starts = recurrent.starts(segments if segments is not None else sessions, len(counts))
-    mean, spread = self._mean_spread(counts, starts)
+    stream = Stream(segments, contact, sessions) if self.memory is not None else None
+    mean, spread = self.root.mean_spread(counts, stream)
     if not return_std:
       return mean
     sd = np.zeros_like(mean) if spread is None else spread
     if self.info is not None:
       sd = np.sqrt(sd ** 2 + self.info.residual_sd ** 2)
     return mean, sd
-
-  def _mean_spread(self, counts: np.ndarray, starts: Optional[np.ndarray] = None):
-    """(N, A) prediction and the members' spread (None without members), unchecked; `starts`
-    (N,) bool marks where each recording begins, for a recurrent stage."""
-    if self.parts:
-      each = [p._mean_spread(counts) for p in self.parts]
-      for k, held in self._guarded(counts).items():
-        each[k] = held
-      cols = np.arange(len(self.pick))
-      mean = np.stack([m for m, _ in each])[list(self.pick), :, cols].T
-      spreads = [np.zeros_like(m) if s is None else s for m, s in each]
-      return mean, np.stack(spreads)[list(self.pick), :, cols].T
-    if self.members:
-      each = np.stack([m._predict_one(counts) for m in self.members])
-      return each.mean(axis=0), each.std(axis=0)
-    return self._predict_one(counts, starts), None
-
-  def guard(self) -> Optional[int]:
-    """AUTO: the index of its LS part, whose plane carries the network parts beyond the
-    training box (None: no LS part, or no network part, or no training range)."""
-    if not self.parts or self.info is None:
-      return None
-    nets = any(p.kind in (Kind.LSANN, Kind.NN) for p in self.parts)
-    kinds = [p.kind for p in self.parts]
-    return kinds.index(Kind.LS) if nets and Kind.LS in kinds else None
-
-  def _guarded(self, counts: np.ndarray) -> dict:
-    """AUTO beyond the training box: each network part evaluated at the nearest point of the
-    box and continued along the LS part's plane, part(clip(x)) + LS(x) - LS(clip(x)). A
-    network's held-out score says nothing of inputs past the box, where it may bend anywhere
-    (measured on the footpad's 1.5 mm presses past 0.5-1 mm training: NN-only Fz NRMSE 6.6 %
-    where LS keeps 0.9 %); the plane is the tamest continuation the data support, and it
-    meets the network at the box's faces. {part index: (mean, spread)}."""
-    ls = self.guard()
-    if ls is None or not self.outside(counts).any():
-      return {}
-    inside = np.clip(counts, self.info.input_lo, self.info.input_hi)
-    plane = self.parts[ls]._mean_spread(counts)[0] - self.parts[ls]._mean_spread(inside)[0]
-    out = {}
-    for k, p in enumerate(self.parts):
-      if p.kind in (Kind.LSANN, Kind.NN):
-        mean, spread = p._mean_spread(inside)
-        out[k] = (mean + plane, spread)
-    return out
 
   def outside(self, counts: np.ndarray) -> np.ndarray:
     """(N, C) True where an input lies outside the range the estimator was fitted on (all
@@ -308,142 +158,26 @@ class Estimator:
                     f"range this estimator was fitted on ({', '.join(names)}): its output "
                     f"there is extrapolation", OutOfRangeWarning, stacklevel=3)
 
-  def _arrays(self) -> tuple[dict, dict]:
-    arrays, meta = {}, {"kind": self.kind.value}
-    if self.linear is not None:
-      for f in ("mean", "scale", "coef", "bias"):
-        arrays[f"linear_{f}"] = getattr(self.linear, f)
-      meta.update(rank=self.linear.rank, degree=self.linear.degree)
-    if self.poly is not None:
-      arrays.update({f"poly_{f}": getattr(self.poly, f)
-                     for f in ("mean", "scale", "lo", "hi", "powers", "coef", "bias")})
-      meta.update(ridge=self.poly.ridge, rank=self.poly.rank)
-    if self.net is not None:
-      arrays.update(net_w1=self.net.w1, net_w2=self.net.w2, net_x_lo=self.net.x_scale.lo,
-                    net_x_hi=self.net.x_scale.hi, net_y_lo=self.net.y_scale.lo,
-                    net_y_hi=self.net.y_scale.hi)
-    if self.rnn is not None:
-      arrays.update({f"rnn_{f}": getattr(self.rnn, f) for f in recurrent.GRU.FIELDS})
-    if self.training is not None:
-      meta["stop"] = self.training.stop.name
-      meta["epochs"] = self.training.epochs
-    for k, m in enumerate(self.members):
-      sub, sub_meta = m._arrays()
-      arrays.update({f"m{k}_{name}": a for name, a in sub.items()})
-      meta.setdefault("members", []).append(sub_meta)
-    for k, part in enumerate(self.parts):
-      sub, sub_meta = part._arrays()
-      arrays.update({f"p{k}_{name}": a for name, a in sub.items()})
-      meta.setdefault("parts", []).append(sub_meta)
-    if self.parts:
-      meta["pick"] = list(self.pick)
-    if self.info is not None:
-      arrays.update(self.info.arrays())
-      meta["info"] = self.info.to_json()
-    if self.memory is not None:
-      sub, meta["memory"] = self.memory.arrays()
-      arrays.update(sub)
-    return arrays, meta
-
   def save(self, path) -> None:
-    """Writes the arrays and settings to one .npz file, atomically, with the format tag,
-    version and a SHA-256 of the arrays that `load` checks."""
-    arrays, meta = self._arrays()
-    meta.update(format=FORMAT, version=VERSION, sha256=files.array_digest(arrays))
-    files.atomic_write(pathlib.Path(path),
-                       lambda f: np.savez(f, meta=files.json_text(meta), **arrays))
+    """Writes the estimator to one .npz file, atomically (`calibrate.store`: format 4, with
+    the format tag, version and a SHA-256 of the arrays that `load` checks)."""
+    store.save(path, self.kind.value, self.root, self.info, self.training)
 
   @staticmethod
   def load(path) -> "Estimator":
-    """Reads a file `save` wrote, checked: format tag and version (a version this testbench
-    does not know is refused), checksum, shapes and finiteness of every array.
+    """Reads a file `save` wrote (or a version-3 file), checked: format tag and version (a
+    version this testbench does not know is refused), checksum, finiteness of every array,
+    the shape of every array against the others.
 
     Raises:
       errors.DataError naming the file and what is wrong with it.
     """
-    path = pathlib.Path(path)
-    arrays = files.read_npz(path, f"estimator {path}", text=("meta",))
+    kind, root, info = store.load(path)
     try:
-      meta = files.from_json(str(arrays.pop("meta")))
-    except (KeyError, ValueError) as err:
-      raise errors.DataError(f"estimator {path}: no readable settings ({err})") from None
-    files.check_header(meta, path, "estimator", FORMAT, VERSION, files.array_digest(arrays))
-    bad = [k for k, a in arrays.items() if a.dtype.kind == "f" and not np.isfinite(a).all()]
-    if bad:
-      raise errors.DataError(f"estimator {path}: {', '.join(bad)} hold NaN or inf")
-    try:
-      return _from_saved(meta, arrays)
-    except (KeyError, ValueError, TypeError) as err:
-      raise errors.DataError(f"estimator {path}: {err}") from None
-
-
-def _from_saved(meta: dict, arrays: dict[str, np.ndarray]) -> Estimator:
-  if "memory" in meta:
-    memory = temporal.Memory.from_saved(meta["memory"], arrays)
-    stages = _from_saved({k: v for k, v in meta.items() if k != "memory"},
-                         {k: a for k, a in arrays.items() if not k.startswith("memory_")})
-    if stages._n_stage_inputs > memory.width or (
-        stages.kind is not Kind.NN and stages._n_stage_inputs != memory.width):
-      raise ValueError(f"its stages read {stages._n_stage_inputs} features, its temporal "
-                       f"front end gives {memory.width}")
-    return dataclasses.replace(stages, memory=memory)
-  kind = Kind(meta["kind"])
-  info = Info.from_saved(meta["info"], arrays) if "info" in meta else None
-  if "members" in meta:
-    members = tuple(_from_saved(m, {k[len(f"m{i}_"):]: a for k, a in arrays.items()
-                                    if k.startswith(f"m{i}_")})
-                    for i, m in enumerate(meta["members"]))
-    return Estimator(kind, info=info, members=members)
-  if "parts" in meta:
-    parts = tuple(_from_saved(m, {k[len(f"p{i}_"):]: a for k, a in arrays.items()
-                                  if k.startswith(f"p{i}_")})
-                  for i, m in enumerate(meta["parts"]))
-    pick = tuple(int(k) for k in meta["pick"])
-    if kind is not Kind.AUTO or not all(0 <= k < len(parts) for k in pick):
-      raise ValueError("its parts do not fit its outputs")
-    return Estimator(kind, info=info, parts=parts, pick=pick)
-  lin = net = rnn = None
-  if "rnn_w" in arrays:
-    rnn = recurrent.GRU(*(arrays[f"rnn_{f}"] for f in recurrent.GRU.FIELDS))
-    rnn.check()
-  if "poly_coef" in arrays:
-    p = poly_lib.PolyFit(*(arrays[f"poly_{f}"] for f in ("mean", "scale", "lo", "hi")),
-                         arrays["poly_powers"].astype(int), arrays["poly_coef"],
-                         arrays["poly_bias"], float(meta["ridge"]), int(meta["rank"]))
-    c = len(p.mean)
-    if any(a.shape != (c,) for a in (p.scale, p.lo, p.hi)) or p.powers.shape[1:] != (c,) or \
-       p.coef.shape[0] != len(p.powers) or p.bias.shape != p.coef.shape[1:] or \
-       kind is not Kind.POLY:
-      raise ValueError("the polynomial's arrays do not fit together")
-    return Estimator(kind, info=info, poly=p)
-  if "linear_coef" in arrays:
-    lin = linear.LinearFit(arrays["linear_mean"], arrays["linear_scale"],
-                           arrays["linear_coef"], arrays["linear_bias"], int(meta["rank"]),
-                           int(meta["degree"]))
-    c = len(lin.mean)
-    if lin.scale.shape != (c,) or lin.coef.shape[0] != c * lin.degree or \
-       lin.bias.shape != lin.coef.shape[1:]:
-      raise ValueError("the linear stage's arrays do not fit together")
-  if "net_w1" in arrays:
-    net = mlp.MLP(arrays["net_w1"], arrays["net_w2"],
-                  mlp.MinMax(arrays["net_x_lo"], arrays["net_x_hi"]),
-                  mlp.MinMax(arrays["net_y_lo"], arrays["net_y_hi"]))
-    h, inputs = net.w1.shape
-    if net.w2.shape[1] != h + 1 or net.x_scale.lo.shape != (inputs - 1,) or \
-       net.y_scale.lo.shape != (net.w2.shape[0],):
-      raise ValueError("the network's arrays do not fit together")
-  if (kind is not Kind.NN and lin is None) or (kind in (Kind.NN, Kind.LSANN) and net is None) \
-     or ((kind is Kind.GRU) != (rnn is not None)):
-    raise ValueError(f"a {kind.value} estimator needs its "
-                     f"{'linear stage' if lin is None else 'network'}")
-  if rnn is not None and (rnn.v.shape[0] != lin.coef.shape[1]
-                          or rnn.inputs > len(lin.mean)):
-    raise ValueError("the recurrent network does not fit the linear stage")
-  return Estimator(kind, lin, net, info=info, rnn=rnn)
-
-
-FORMAT = "testbench-estimator"
-VERSION = 3  # 1: no format tag or checksum; 2: no Info, no members
+      return Estimator(Kind(kind), root, info)
+    except ValueError:
+      raise errors.DataError(f"estimator {path}: method {kind!r} is not one this testbench "
+                             f"knows") from None
 
 
 def split_validation(n: int, fraction: float, seed: int, block: Optional[int] = None
@@ -586,7 +320,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       tr, va = split(where, seed)
       held = poly_lib.fit(x[tr], y[tr], degree, ridge * len(tr))
       sd = np.std(y[va] - held.predict(x[va]), axis=0)
-      return [Estimator(kind, poly=poly_lib.fit(x, y, degree, ridge * len(x)))], [sd]
+      return [Estimator(kind, poly_lib.fit(x, y, degree, ridge * len(x)))], [sd]
     if kind in (Kind.LS, Kind.POLY):
       d = degree if kind is Kind.POLY else 1
       tr, va = split(where, seed)
@@ -607,7 +341,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       res = mlp.train(xn[tr], targets[tr], xn[va], targets[va], config, member_seed,
                       fold_progress, snapshots=snapshots)
       sds.append(np.std(targets[va] - res.net.predict(xn[va]), axis=0))
-      members.append(Estimator(kind, lin, res.net, res))
+      members.append(Estimator(kind, res.net if lin is None else compose.Residual(lin, res.net),
+                               training=res))
     return members, sds
 
   if kind in (Kind.LSANN, Kind.NN):
@@ -628,29 +363,11 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
                                                      seed, one_fit, config)
     if ls_only.any():
       members = [_ls_only(m, ls_only) for m in members]
-    extra = _held_out(residual, groups, {**stats, "ls_only": [
+    extra = held_out(residual, groups, {**stats, "ls_only": [
         given["outputs"][j] for j in np.flatnonzero(ls_only)]})
   out = [dataclasses.replace(m, info=Info(residual_sd=sd, **base, **extra))
          for m, sd in zip(members, sds)]
   return out[0] if len(out) == 1 else combine(out)
-
-
-def _held_out(residual: np.ndarray, groups: splits.Groups, stats: dict) -> dict:
-  """`Info`'s interval fields from held-out residuals (N, A) of grouped cross-validation."""
-  # every sample its own group (the paper's split): no recording offsets to tell apart
-  offsets = _group_means(residual, groups.labels) if groups.how != "samples" else None
-  within = residual if offsets is None else \
-      residual - offsets[np.unique(groups.labels, return_inverse=True)[1]]
-  return dict(interval_abs=np.quantile(np.abs(within), INTERVAL_GRID, axis=0),
-              interval_n=len(residual), interval_offsets=offsets, validation=stats)
-
-
-def _group_means(values: np.ndarray, labels: np.ndarray) -> np.ndarray:
-  """(G, A) the mean of `values` (N, A) over each group, in the order of np.unique(labels)."""
-  _, inverse = np.unique(labels, return_inverse=True)
-  sums = np.zeros((inverse.max() + 1, values.shape[1]))
-  np.add.at(sums, inverse, values)
-  return sums / np.bincount(inverse)[:, None]
 
 
 def _subset(g: splits.Groups, idx: np.ndarray) -> splits.Groups:
@@ -704,7 +421,8 @@ def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, config):
   folds = splits.folds(groups, k, seed)
   for tr, va in folds:
     fitted, _ = one_fit(counts[tr], forces[tr], _subset(groups, tr), None, None, config)
-    est = fitted[0] if len(fitted) == 1 else Estimator(kind, members=tuple(fitted))
+    est = fitted[0] if len(fitted) == 1 else Estimator(
+        kind, compose.Mean(tuple(f.root for f in fitted)))
     residual[va] = forces[va] - est.predict(counts[va])
     if kind is Kind.LSANN:
       ls_residual[va] = forces[va] - fitted[0].linear.predict(counts[va])
@@ -728,11 +446,8 @@ def _cross_validate(kind, counts, forces, groups, k, seed, one_fit, config):
 def _ls_only(est: Estimator, outputs: np.ndarray) -> Estimator:
   """LSANN with its network's contribution removed on `outputs` (bool (A,)): their output
   scaling maps to exactly 0, so every consumer (predict, the C export) sees the LS stage."""
-  y = est.net.y_scale
-  lo, hi = np.where(outputs, 0.0, y.lo), np.where(outputs, 0.0, y.hi)
-  w2 = np.where(outputs[:, None], 0.0, est.net.w2)  # a zero scaled output, mapped to 0 N
-  return dataclasses.replace(est, net=dataclasses.replace(est.net, w2=w2,
-                                                          y_scale=mlp.MinMax(lo, hi)))
+  return dataclasses.replace(est, root=compose.Residual(
+      est.root.base, est.root.residual.without_outputs(outputs)))
 
 
 CANDIDATES = (Kind.LS, Kind.POLY, Kind.LSANN, Kind.NN)
@@ -798,7 +513,8 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
                   "candidates": {k: v["cv_rmse"] for k, v in table.items()},
                   "ls_only": [n for j, n in enumerate(first.outputs)
                               if n in infos[j].validation.get("ls_only", [])]})
-  return Estimator(Kind.AUTO, info=info, parts=parts, pick=pick), table
+  root = compose.PerOutput(tuple(p.root for p in parts), pick, info.input_lo, info.input_hi)
+  return Estimator(Kind.AUTO, root, info), table
 
 
 def combine(members: Sequence[Estimator]) -> Estimator:
@@ -810,14 +526,24 @@ def combine(members: Sequence[Estimator]) -> Estimator:
   spread = np.sqrt(np.mean([m.info.residual_sd ** 2 for m in members], axis=0))
   info = dataclasses.replace(first, residual_sd=spread,
                              settings={**first.settings, "ensemble": len(members)})
-  return Estimator(members[0].kind, info=info, members=members)
+  return Estimator(members[0].kind, compose.Mean(tuple(m.root for m in members)), info,
+                   trainings=tuple(m.training for m in members))
 
 
 def at_epoch_cap(est: Estimator, cap: int) -> Estimator:
   """The estimator that training `est` with `epochs=cap` would have returned (its fit must
   have been asked for that cap in `snapshots`)."""
   net, _ = est.training.snapshots[cap]
-  return dataclasses.replace(est, net=net)
+  return dataclasses.replace(est, root=_with_net(est.root, net))
+
+
+def _with_net(part: Part, net: mlp.MLP) -> Part:
+  """`part` with its network replaced by `net`."""
+  if isinstance(part, compose.Chain):
+    return compose.Chain(part.front, _with_net(part.stage, net))
+  if isinstance(part, compose.Residual):
+    return compose.Residual(part.base, net)
+  return net
 
 
 # time constants the history features choose from, s: from the footpad's fast relaxation
@@ -933,10 +659,10 @@ def _fit_behind(memory, kind, counts, forces, segments, select, stream, names, s
   info = dataclasses.replace(
       est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
       input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[select]),
-      settings={**est.info.settings, "memory": memory.arrays()[1],
+      settings={**est.info.settings, "memory": memory.settings(),
                 "integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
                                               & (raw == np.round(raw))))})
-  return dataclasses.replace(est, memory=memory, info=info)
+  return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info)
 
 
 def _fit_gru(memory, x, forces, segments, select, names, seed, folds, config, kwargs
@@ -993,10 +719,10 @@ def _fit_gru(memory, x, forces, segments, select, names, seed, folds, config, kw
              "folds": len(parts), "cv_rmse": np.sqrt(np.mean(residual ** 2, axis=0)).tolist(),
              "cv_fold_rmse": [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
                               for _, va in parts], "ls_only": []}
-    info = dataclasses.replace(info, **_held_out(residual, groups, stats))
+    info = dataclasses.replace(info, **held_out(residual, groups, stats))
     info = dataclasses.replace(info, settings={**info.settings, "split": groups.how,
                                                "groups": groups.count})
-  return Estimator(Kind.GRU, linear=lin, rnn=net, training=res, info=info)
+  return Estimator(Kind.GRU, compose.Residual(lin, net), info, training=res)
 
 
 def _choose_taus(base, counts, forces, segments, select, stream, candidates, max_taus,

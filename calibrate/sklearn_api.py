@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibrate import estimators, metrics, mlp
+from calibrate import estimators, metrics
+from calibrate.parts import mlp
 
 _PARAMS = ("method", "hidden", "epochs", "degree", "ensemble", "val_fraction", "seed")
 

@@ -402,9 +402,9 @@ def _resign_estimator(src, dst, change):
 
 
 @pytest.mark.parametrize("change, message", [
-    (lambda a: a.__setitem__("linear_coef", a["linear_coef"].astype(str)), "holds <U"),
-    (lambda a: a.__setitem__("linear_bias", np.array(["0.1"] * len(a["linear_bias"]))),
-     "linear_bias holds"),
+    (lambda a: a.__setitem__("root/coef", a["root/coef"].astype(str)), "holds <U"),
+    (lambda a: a.__setitem__("root/bias", np.array(["0.1"] * len(a["root/bias"]))),
+     "root/bias holds"),
 ])
 def test_an_estimator_whose_arrays_hold_text_is_refused(csvs, tmp_path, capsys, change,
                                                         message):

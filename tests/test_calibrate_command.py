@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from calibrate import splits, __main__ as cli
-from calibrate import cexport, csvfile, estimators, metrics, mlp
+from calibrate import cexport, csvfile, estimators, metrics
+from calibrate.parts import mlp
 from calibrate.sklearn_api import ForceCalibrator
 from util import errors
 

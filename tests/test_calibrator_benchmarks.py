@@ -8,7 +8,8 @@ import numpy as np
 
 from benchmarks import run as cli
 from benchmarks.calibrators import accuracy_vs_time as avt
-from calibrate import estimators, mlp
+from calibrate import estimators
+from calibrate.parts import mlp
 
 
 def test_a_snapshot_at_a_cap_is_the_run_capped_there():

@@ -5,7 +5,8 @@ import pytest
 
 from benchmarks.footpad import table as footpad_table
 from benchmarks.registry import Context
-from calibrate import estimators, mlp
+from calibrate import estimators
+from calibrate.parts import mlp
 
 FAST = mlp.LMConfig(hidden=5, epochs=30)
 
@@ -167,7 +168,8 @@ def test_blocks_split_holds_out_whole_contiguous_blocks():
 def test_fits_on_several_processes_equal_serial_ones_to_the_bit():
   """`calibrate.parallel.fit_all`: the same jobs on two workers and one after another in
   one worker give the same weights, bit for bit (each fit its own seed, one thread each)."""
-  from calibrate import estimators, linear, mlp, parallel
+  from calibrate import estimators, parallel
+  from calibrate.parts import linear, mlp
   rng = np.random.default_rng(0)
   x = rng.uniform(0, 4000, (600, 6))
   y = np.column_stack([np.tanh(x[:, 0] / 2000 - 1), x[:, 1] / 1000, x[:, 2:].sum(axis=1) / 4000])

@@ -73,7 +73,10 @@ def _shapes(tmp: pathlib.Path) -> dict:
   """{name: (estimator, probe, predict keywords, export keywords)} fitted with today's code."""
   from calibrate import __main__ as cli
   from calibrate import estimators as E
-  from calibrate import mlp, recurrent, splits, temporal
+  from calibrate import splits
+  from calibrate.parts import mlp
+  from calibrate.parts import gru
+  from calibrate.parts import memory
   fast = mlp.LMConfig(hidden=4, epochs=15)
   x, y, rec = _static()
   groups = splits.groups(len(x), "recordings", rec)
@@ -98,7 +101,7 @@ def _shapes(tmp: pathlib.Path) -> dict:
                          seed=5, candidates=("LS", "LSANN", "NN"))
   assert auto.guard() is not None
   put("auto", auto, p)
-  tare = temporal.Tare(threshold=5.0, hold=5)
+  tare = memory.Tare(threshold=5.0, hold=5)
   stream = dict(segments=seg)
   pc = np.round(c.mean(axis=0) + 1.6 * (c - c.mean(axis=0)))  # a recording, stretched 30 % past
   put("ls_memory", E.fit_temporal("LS", c, f, DT, segments=seg, taus=(0.3,), tare=tare),
@@ -109,7 +112,7 @@ def _shapes(tmp: pathlib.Path) -> dict:
   put("nn_net_inputs", E.fit_temporal("NN", c, f, DT, segments=seg, taus=(0.3,),
                                       differences=False, config=fast, seed=3), pc, **stream)
   put("gru", E.fit_temporal("GRU", c, f, DT, segments=seg, taus=(), differences=False,
-                            gru=recurrent.GRUConfig(hidden=4, steps=30, window=40, burn_in=10), seed=7),
+                            gru=gru.GRUConfig(hidden=4, steps=30, window=40, burn_in=10), seed=7),
       pc, **stream)
   rows = ["time,p0,p1,p2,p3,Fx,Fy,Fz", "s,counts,counts,counts,counts,N,N,N"]
   cc, fc, _ = _recordings(seed=3)

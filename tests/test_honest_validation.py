@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from calibrate import __main__ as cli
-from calibrate import csvfile, estimators, mlp, splits
+from calibrate import csvfile, estimators, splits
+from calibrate.parts import mlp
 
 
 def _ar1(n, phi, channels, rng):

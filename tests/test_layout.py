@@ -139,7 +139,8 @@ def test_every_benchmark_describes_itself_and_its_settings(name):
 
 def test_calibrate_does_not_switch_jax_to_float64_on_import():
   code = ("import jax, numpy as np\n"
-          "from calibrate import estimators, mlp\n"
+          "from calibrate import estimators\n"
+          "from calibrate.parts import mlp\n"
           "assert not jax.config.jax_enable_x64\n"
           "rng = np.random.default_rng(0)\n"
           "x = rng.uniform(size=(300, 3)); y = np.tanh(x @ rng.normal(size=(3, 2)))\n"

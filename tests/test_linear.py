@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from calibrate import linear, metrics
+from calibrate import metrics
+from calibrate.parts import linear
 
 
 def _problem(n=400, seed=0):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from calibrate import mlp
+from calibrate.parts import mlp
 
 
 @pytest.fixture(autouse=True)

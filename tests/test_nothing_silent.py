@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from benchmarks import executors, outputs, registry, run as cli
-from calibrate import estimators, linear
+from calibrate import estimators
+from calibrate.parts import linear
 from util import errors, files
 from models import footpad as footpad_model
 from sim import cache, physics, recording
@@ -357,7 +358,7 @@ def test_loaders_refuse_files_that_are_not_theirs(tmp_path):
     np.savez(tmp_path / "bad.npz", meta=json.dumps({**meta, **change}), **arrays)
     with pytest.raises(errors.DataError, match=f"bad.npz.*{message}"):
       estimators.Estimator.load(tmp_path / "bad.npz")
-  arrays["linear_coef"] = arrays["linear_coef"] * np.nan
+  arrays["root/coef"] = arrays["root/coef"] * np.nan
   np.savez(tmp_path / "bad.npz", meta=json.dumps(meta), **arrays)
   with pytest.raises(errors.DataError, match="bad.npz.*(checksum|NaN)"):
     estimators.Estimator.load(tmp_path / "bad.npz")

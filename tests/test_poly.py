@@ -5,7 +5,8 @@ recovered exactly, and the per-channel cubic beaten where channels couple."""
 import numpy as np
 import pytest
 
-from calibrate import estimators, poly, splits
+from calibrate import estimators, splits
+from calibrate.parts import poly
 
 
 def _data(n=600, seed=0):

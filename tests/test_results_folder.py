@@ -97,7 +97,7 @@ def test_progress_piped_is_one_line_per_stage(tmp_path, capsys):
 
 def test_training_closes_its_progress_when_it_stops_early():
   import numpy as np
-  from calibrate import mlp
+  from calibrate.parts import mlp
   rng = np.random.default_rng(0)
   x = rng.normal(size=(400, 3))
   y = x @ rng.normal(size=(3, 2))

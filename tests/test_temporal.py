@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from calibrate import estimators, mlp, temporal
+from calibrate import estimators
+from calibrate.parts import mlp
+from calibrate.parts import memory
 from util import errors
 
 DT = 0.001
@@ -88,7 +90,7 @@ def test_tare_removes_a_drift_the_static_map_cannot():
   static = estimators.fit(estimators.Kind.LS, counts[train], f[train])
   tared = estimators.fit_temporal(estimators.Kind.LS, counts[train], f[train], DT,
                                   segments=labels[train], taus=(), differences=False,
-                                  tare=temporal.Tare(threshold=15.0, hold=10))
+                                  tare=memory.Tare(threshold=15.0, hold=10))
   test = ~train
   rms = lambda p: np.sqrt(np.mean((p - f[test]) ** 2))  # noqa: E731
   e_static = rms(static.predict(counts[test]))
@@ -99,7 +101,7 @@ def test_tare_removes_a_drift_the_static_map_cannot():
   # given as a contact flag, the same intervals: the same offsets
   flagged = estimators.fit_temporal(estimators.Kind.LS, counts[train], f[train], DT,
                                     segments=labels[train], taus=(), differences=False,
-                                    tare=temporal.Tare(hold=10), contact=~free[train])
+                                    tare=memory.Tare(hold=10), contact=~free[train])
   e_flag = rms(flagged.predict(counts[test], segments=labels[test], contact=~free[test]))
   assert e_flag < 0.2 * e_static
 
@@ -109,7 +111,7 @@ def test_filters_and_tares_never_cross_recordings():
   rng = np.random.default_rng(2)
   counts, f, labels, _ = _drifting(rng, n=8000, segments=2)
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, segments=labels,
-                                taus=(0.1, 1.0), tare=temporal.Tare(threshold=5.0))
+                                taus=(0.1, 1.0), tare=memory.Tare(threshold=5.0))
   both = est.memory.features(counts, labels)
   for s in (0, 1):
     m = labels == s
@@ -122,7 +124,7 @@ def test_temporal_estimators_round_trip_through_a_file(tmp_path):
   for kind, extra in ((estimators.Kind.LS, {}),
                       (estimators.Kind.LSANN, {"config": mlp.LMConfig(hidden=4, epochs=5)})):
     est = estimators.fit_temporal(kind, counts, f, DT, segments=labels, taus=(0.3,),
-                                  tare=temporal.Tare(threshold=5.0), **extra)
+                                  tare=memory.Tare(threshold=5.0), **extra)
     path = tmp_path / f"{kind.value}.npz"
     est.save(path)
     back = estimators.Estimator.load(path)
@@ -148,7 +150,7 @@ def test_bad_temporal_input_names_the_field():
   counts, f, labels, _ = _drifting(rng, n=4000, segments=2)
   with pytest.raises(errors.SettingError, match="tare threshold"):
     estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(),
-                            tare=temporal.Tare(threshold=-1.0))
+                            tare=memory.Tare(threshold=-1.0))
   with pytest.raises(errors.SettingError, match="time constant"):
     estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.0,))
   with pytest.raises(errors.SettingError, match="two segments or more"):
@@ -156,12 +158,12 @@ def test_bad_temporal_input_names_the_field():
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, taus=(0.3,))
   with pytest.raises(errors.DataError, match="segments has 3 labels"):
     est.predict(counts, segments=labels[:3])
-  from calibrate import recurrent
+  from calibrate.parts import gru
   with pytest.raises(errors.SettingError, match=r"hidden=0 is out of range"):
     estimators.fit_temporal("GRU", counts, f, DT, segments=labels, taus=(),
-                            gru=recurrent.GRUConfig(hidden=0))
+                            gru=gru.GRUConfig(hidden=0))
   with pytest.raises(errors.SettingError, match="burn_in=512 is out of range"):
-    recurrent.GRUConfig(burn_in=512).validate()
+    gru.GRUConfig(burn_in=512).validate()
   with pytest.raises(errors.SettingError, match="reads recordings in time order"):
     estimators.fit("GRU", counts, f)
 
@@ -183,7 +185,7 @@ def test_the_tare_carries_through_a_session_and_filters_restart_per_segment():
   rng = np.random.default_rng(7)
   counts, f, labels, _ = _drifting(rng, n=6000, segments=3)
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, segments=labels,
-                                taus=(0.3,), tare=temporal.Tare(threshold=5.0))
+                                taus=(0.3,), tare=memory.Tare(threshold=5.0))
   one = np.zeros(len(counts), int)
   carried = est.memory.offsets(counts, labels, sessions=one)[0]
   fresh = est.memory.offsets(counts, labels)[0]
@@ -203,16 +205,16 @@ def test_the_c_export_carries_the_front_end_and_the_recurrent_state(tmp_path, ki
   """Tare, high-passes, differences and the GRU's state, streamed sample by sample in C
   (float32) with a reset at each recording: equal to `predict` over whole recordings within
   1e-5 of each output's scale, and the tares happen where Python's do."""
-  from calibrate import recurrent
+  from calibrate.parts import gru
   rng = np.random.default_rng(6)
   counts, f, labels, _ = _drifting(rng, n=12_000, segments=3)
   counts = np.round(counts)  # ADC counts
   extra = {"LSANN": {"config": mlp.LMConfig(hidden=4, epochs=5)},
-           "GRU": {"gru": recurrent.GRUConfig(hidden=4, steps=20, check=10)}}.get(kind, {})
+           "GRU": {"gru": gru.GRUConfig(hidden=4, steps=20, check=10)}}.get(kind, {})
   sessions = np.zeros(len(counts), int) if kind == "LS in sessions" else None
   est = estimators.fit_temporal(kind.split()[0], counts, f, DT, segments=labels,
                                 sessions=sessions, taus=(0.05, 1.0),
-                                tare=temporal.Tare(threshold=5.0), seed=1, **extra)
+                                tare=memory.Tare(threshold=5.0), seed=1, **extra)
   assert est.memory.offsets(counts, labels)[1].any()  # the tare acts in this recording
   got, report = _run_in_c(est, counts, labels, tmp_path, sessions=sessions)
   want = est.predict(counts, segments=labels, sessions=sessions)
@@ -227,7 +229,7 @@ def test_the_c_export_refuses_a_tare_by_contact_flag(tmp_path):
   rng = np.random.default_rng(6)
   counts, f, labels, free = _drifting(rng, n=4000, segments=2)
   est = estimators.fit_temporal(estimators.Kind.LS, counts, f, DT, segments=labels, taus=(),
-                                tare=temporal.Tare(), contact=~free)
+                                tare=memory.Tare(), contact=~free)
   with pytest.raises(errors.SettingError, match="contact flag"):
     cexport.write(est, tmp_path)
   assert not list(tmp_path.iterdir())
@@ -273,11 +275,11 @@ def test_the_command_line_fits_and_uses_a_front_end(tmp_path, capsys):
 
 
 def test_training_windows_never_cross_a_recording_and_score_each_sample_once():
-  from calibrate import recurrent
+  from calibrate.parts import gru
   runs = [(0, 1000), (1000, 1100), (1100, 3717)]
   select = np.ones(3717, bool)
   select[1500:1600] = False
-  spans = recurrent.windows(runs, select, 256, 64)
+  spans = gru.windows(runs, select, 256, 64)
   scored = np.zeros(3717, int)
   for lo, hi, first in spans:
     assert hi - lo <= 256 and any(a <= lo and hi <= b for a, b in runs)
@@ -307,13 +309,13 @@ def test_the_recurrent_estimator_learns_a_memory_the_static_map_cannot():
   is off by ~17-20 % of each force's spread; LS plus the GRU's residual lowers that by a
   tenth or more (measured 0.171/0.204 -> 0.119/0.123). Saved and loaded, it predicts the same
   bytes; fitted again with the seed, it gives the same bytes."""
-  from calibrate import recurrent
+  from calibrate.parts import gru
   rng = np.random.default_rng(0)
   x, f, labels = _hysteretic(rng)
   tr = labels < 7
   fit = lambda: estimators.fit_temporal(  # noqa: E731
       "GRU", x[tr], f[tr], DT, segments=labels[tr], taus=(), differences=False, seed=1,
-      gru=recurrent.GRUConfig(hidden=8, steps=1000, patience=4))
+      gru=gru.GRUConfig(hidden=8, steps=1000, patience=4))
   est = fit()
   ls = estimators.fit_temporal("LS", x[tr], f[tr], DT, segments=labels[tr], taus=(),
                                differences=False)
@@ -363,13 +365,13 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   within 1e-3; where qemu-arm and the ARM compiler are at hand, the instructions executed
   per estimate lie within 15 % of the cost model's (measured: float H=8 69,447 against
   71,880; fixed 6,339)."""
-  from calibrate import recurrent
+  from calibrate.parts import gru
   rng = np.random.default_rng(6)
   counts, f, labels, _ = _drifting(rng, n=12_000, segments=3)
   counts = np.round(counts)
   est = estimators.fit_temporal("GRU", counts, f, DT, segments=labels, taus=(0.05,), seed=1,
-                                tare=temporal.Tare(threshold=5.0),
-                                gru=recurrent.GRUConfig(hidden=8, steps=300))
+                                tare=memory.Tare(threshold=5.0),
+                                gru=gru.GRUConfig(hidden=8, steps=300))
   got, report = _run_in_c(est, counts, labels, tmp_path, fixed)
   want = est.predict(counts, segments=labels)
   assert np.max(np.abs(got - want) / np.abs(want).max(axis=0)) < (1e-3 if fixed else 1e-5)

@@ -209,15 +209,17 @@ def array_digest(arrays: dict[str, np.ndarray]) -> str:
   return h.hexdigest()
 
 
-def check_header(head: Any, path: pathlib.Path, kind: str, tag: str, version: int,
+def check_header(head: Any, path: pathlib.Path, kind: str, tag: str, version,
                  digest: str) -> None:
   """Raise DataError naming `path` unless the header `head` a loader read carries the format
-  `tag`, its `version` and the checksum `digest` of what it describes."""
+  `tag`, one of the versions `version` (an int, or a collection of them) and the checksum
+  `digest` of what it describes."""
+  known = sorted(version) if isinstance(version, (set, frozenset, tuple, list)) else [version]
   if not isinstance(head, dict) or head.get("format") != tag:
     raise errors.DataError(f"{kind} {path}: not a testbench {kind} (no format tag {tag!r})")
-  if head.get("version") != version:
+  if head.get("version") not in known:
     raise errors.DataError(f"{kind} {path}: format version {head.get('version')!r}; this "
-                           f"testbench reads version {version}")
+                           f"testbench reads version {' or '.join(map(str, known))}")
   if head.get("sha256") != digest:
     raise errors.DataError(f"{kind} {path}: its contents do not match the checksum written "
                            f"with them (damaged or edited)")

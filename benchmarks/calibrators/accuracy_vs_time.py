@@ -137,7 +137,8 @@ def stops_paying(front_points: list[dict]) -> dict | None:
 
 
 def _rig(ctx, rig: str) -> dict:
-  from calibrate import estimators, mlp
+  from calibrate import estimators
+  from calibrate.parts import mlp
   s = ctx.settings
   d = _data(ctx, rig)
   error = d["error"]
@@ -190,7 +191,9 @@ def _temporal_points(ctx, recs: dict, error, caps) -> list[dict]:
   hidden size and epoch cap, GRU+memory at each of `gru_hidden`. A point's seconds are the front
   end's fit plus the network's training to its cap (JIT compilation apart)."""
   from benchmarks.footpad import temporal
-  from calibrate import estimators, mlp, recurrent
+  from calibrate import estimators
+  from calibrate.parts import mlp
+  from calibrate.parts import gru
   from sim.footpad import protocol
   s = ctx.settings
   train, test = recs["train"], recs["test"]
@@ -230,7 +233,7 @@ def _temporal_points(ctx, recs: dict, error, caps) -> list[dict]:
   for hidden in s.gru_hidden:
     est = estimators.fit_temporal(estimators.Kind.GRU, train.counts, y, dt, select=net_sel,
                                   memory=ls.memory, linear_fit=ls.linear,
-                                  gru=recurrent.GRUConfig(hidden=hidden, steps=s.gru_steps),
+                                  gru=gru.GRUConfig(hidden=hidden, steps=s.gru_steps),
                                   **kw)
     tr = est.training
     add(f"GRU+memory h={hidden}", est, front_end + tr.seconds, tr.compile_seconds,

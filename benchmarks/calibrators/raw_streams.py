@@ -127,7 +127,8 @@ def _recordings(ctx):
 def _fit_and_score(x, y, rec, xt, yt, epochs: int, seed: int) -> dict:
   """LS and auto fitted on (x, y) grouped by `rec`, scored on (xt, yt)."""
   import warnings
-  from calibrate import estimators, metrics, mlp, splits
+  from calibrate import estimators, metrics, splits
+  from calibrate.parts import mlp
   groups = splits.groups(len(x), "auto", rec, x)  # one recording: blocks of it
   folds = min(groups.count, 5)
   out = {}

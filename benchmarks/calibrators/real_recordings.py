@@ -176,7 +176,8 @@ def _ours(ctx, d: Data) -> dict:
   """This project's methods, with grouped cross-validation; and each fitted as the LSANN paper
   splits (single samples) for the interval it would have promised."""
   import warnings
-  from calibrate import estimators, mlp, splits
+  from calibrate import estimators, splits
+  from calibrate.parts import mlp
   s = ctx.settings
   groups = splits.groups(len(d.x), "recordings", d.rec)
   config = mlp.LMConfig(epochs=s.epochs)

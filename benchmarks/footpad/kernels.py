@@ -18,7 +18,8 @@ from benchmarks.registry import register
           tags=("footpad", "physics", "fast"))
 def run(ctx) -> dict:
   from benchmarks import outputs
-  from calibrate import linear, metrics
+  from calibrate import metrics
+  from calibrate.parts import linear
   from sim.footpad import paper
   from sim.footpad import layer, protocol, scene as scene_lib
   base = protocol.scenes(ctx.settings)["train"]

@@ -158,7 +158,8 @@ def _problem(ctx) -> tuple:
   a random subset (`SAMPLES`, `QUICK_SAMPLES`) with a 15 % validation split."""
   import jax
   import jax.numpy as jnp
-  from calibrate import estimators, mlp
+  from calibrate import estimators
+  from calibrate.parts import mlp
   from sim.footpad import protocol, scene as scene_lib
   scene = protocol.scenes(ctx.settings)["train"]
   rec, _ = scene_lib.generate(scene, ctx.progress("train episodes"), ctx.use_cache)
@@ -185,7 +186,7 @@ def _own_solvers(ctx, p: _Problem) -> tuple[list, object, float]:
   """The project's LM (trainlm's damping, then Nielsen's) and jaxopt's, from their per-epoch
   validation history (`mlp.train`); the trainlm run sets the target. (rows, that run, the
   target validation MSE)."""
-  from calibrate import mlp
+  from calibrate.parts import mlp
   results, own, target = [], None, None
   for name, backend, damping in (("own LM (trainlm)", "own", "trainlm"),
                                  ("own LM (nielsen)", "own", "nielsen"),
@@ -215,7 +216,7 @@ def _reference_solvers(ctx, p: _Problem, target: float) -> list[dict]:
   import jax.numpy as jnp
   import mujoco.minimize
   import scipy.optimize
-  from calibrate import mlp
+  from calibrate.parts import mlp
   cap = 60.0 if ctx.quick else 300.0
   res_fn = jax.jit(lambda t: mlp.residuals(t, p.xj, p.yj, p.hidden))
   # one analytic Jacobian for every library (`mlp.jacobian`): with jax.jacfwd, assembling J

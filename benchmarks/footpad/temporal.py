@@ -48,8 +48,8 @@ def tare_rule():
   without), and the lightest press on a path is 58 N (0.5 mm deep; measured), so 10 N
   catches the unloaded start and end of every episode and no sample on a path. At 3 N the
   drift hid every unloaded interval of the test recording."""
-  from calibrate import temporal
-  return temporal.Tare(threshold=10.0, hold=10)
+  from calibrate.parts import memory
+  return memory.Tare(threshold=10.0, hold=10)
 
 
 def evaluate(train, test, seeds, methods=("static", "temporal"),

@@ -94,7 +94,7 @@ def _epoch_timing(x, y, epochs: int):
   """(median epoch s, best of 5 u.T @ u s, compile s, epochs run), in a one-thread worker."""
   import time
   import numpy as np
-  from calibrate import mlp
+  from calibrate.parts import mlp
   u = np.random.default_rng(0).normal(size=(len(x), 81))
   best = np.inf
   for _ in range(5):

@@ -49,7 +49,8 @@ def sweep_settings(quick: bool, seed: int):
 
 def evaluate(point: dict) -> dict:
   """One design on the static path (runs in a worker: everything comes from the point)."""
-  from calibrate import linear, metrics  # not estimators: the workers need no JAX
+  from calibrate import metrics  # not estimators: the workers need no JAX
+  from calibrate.parts import linear
   from util import fields
   from sim.shell import design, geometry, scene as scene_lib
   board = fields.build(scene_lib.ShellScene, point["board"])

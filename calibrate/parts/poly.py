@@ -20,6 +20,7 @@ import itertools
 import numpy as np
 import scipy.linalg
 
+from calibrate.parts.base import Part, check_shapes
 from util import errors
 
 
@@ -64,7 +65,7 @@ def gradient(z: np.ndarray, p: np.ndarray, coef: np.ndarray) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class PolyFit:
+class PolyFit(Part):
   """F ~ bias + monomials(z) @ coef, z = (x - mean) / scale, continued linearly beyond the
   training box [lo, hi] of z.
 
@@ -105,6 +106,69 @@ class PolyFit:
       g = gradient(c[out], self.powers, self.coef)
       f[out] += np.einsum("nac,nc->na", g, z[out] - c[out])
     return f
+
+  NAME, C_TAG, LABEL = "poly", "POLY", "POLY"
+  FIELDS = ("mean", "scale", "lo", "hi", "powers", "coef", "bias")
+
+  @property
+  def n_inputs(self) -> int:
+    return len(self.mean)
+
+  @property
+  def n_outputs(self) -> int:
+    return self.coef.shape[1]
+
+  def leaves(self) -> tuple[dict, dict]:
+    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": self.ridge, "rank": self.rank}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children=None) -> "PolyFit":
+    fit = cls(*(arrays[f] for f in ("mean", "scale", "lo", "hi")),
+              np.asarray(arrays["powers"]).astype(int), arrays["coef"], arrays["bias"],
+              float(spec["ridge"]), int(spec["rank"]))
+    c, (t, a) = len(fit.mean), np.shape(fit.coef) if np.ndim(fit.coef) == 2 else (-1, -1)
+    check_shapes("polynomial", arrays, {"scale": (c,), "lo": (c,), "hi": (c,),
+                                        "powers": (t, c), "bias": (a,)})
+    return fit
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """The polynomial, continued along its tangent plane beyond the training box, as
+    `predict` does."""
+    t, a = self.coef.shape
+    mean, inv = em.array(f"{tag}_MEAN", self.mean), em.array(f"{tag}_INV_SCALE", 1 / self.scale)
+    lo, hi = em.array(f"{tag}_LO", self.lo), em.array(f"{tag}_HI", self.hi)
+    coef, bias = em.array(f"{tag}_COEF", self.coef), em.array(f"{tag}_BIAS", self.bias)
+    pw = em.bytes_(f"{tag}_POW", self.powers)
+    em.costs(macs=t * (self.degree + a), stack=12 * c)
+    em.code += [
+        f"  {{ /* polynomial with cross terms, degree {self.degree}, {t} terms; linear beyond "
+        f"the training box */",
+        f"    float z[{c}], zc[{c}], dz[{c}];",
+        "    int outside = 0;",
+        f"    for (int i = 0; i < {c}; ++i) {{",
+        f"      z[i] = (x[i] - {mean}[i]) * {inv}[i];",
+        f"      zc[i] = z[i] < {lo}[i] ? {lo}[i] : (z[i] > {hi}[i] ? {hi}[i] : z[i]);",
+        "      dz[i] = z[i] - zc[i];",
+        "      outside |= dz[i] != 0.0f;",
+        "    }",
+        f"    for (int j = 0; j < {a}; ++j) {acc}[j] += {bias}[j];",
+        f"    for (int t = 0; t < {t}; ++t) {{",
+        f"      const unsigned char *e = &{pw}[t * {c}];",
+        f"      const float *row = &{coef}[t * {a}];",
+        "      float m = 1.0f;",
+        f"      for (int i = 0; i < {c}; ++i)",
+        "        for (int k = 0; k < e[i]; ++k) m *= zc[i];",
+        f"      for (int j = 0; j < {a}; ++j) {acc}[j] += row[j] * m;",
+        "      if (!outside) continue;",
+        f"      for (int v = 0; v < {c}; ++v) {{ /* the tangent plane's slope along z[v] */",
+        "        if (e[v] == 0 || dz[v] == 0.0f) continue;",
+        "        float g = (float)e[v];",
+        f"        for (int i = 0; i < {c}; ++i)",
+        "          for (int k = 0; k < e[i] - (i == v); ++k) g *= zc[i];",
+        f"        for (int j = 0; j < {a}; ++j) {acc}[j] += row[j] * g * dz[v];",
+        "      }",
+        "    }",
+        "  }"]
 
 
 @dataclasses.dataclass(frozen=True)

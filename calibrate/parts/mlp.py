@@ -26,7 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from calibrate import linear
+from calibrate.parts import linear
+from calibrate.parts.base import Part, check_shapes
 from util import errors
 
 
@@ -135,7 +136,7 @@ class MinMax:
 
 
 @dataclasses.dataclass(frozen=True)
-class MLP:
+class MLP(Part):
   """A fitted network: weights and the input/output scalings (plain arrays).
 
   Attributes:
@@ -153,6 +154,69 @@ class MLP:
     s = np.asarray(_forward(_pack(self.w1, self.w2), jnp.asarray(self.x_scale.forward(x)),
                             self.w1.shape[0], x.shape[1], self.w2.shape[0]))
     return self.y_scale.inverse(s)
+
+  NAME, C_TAG, LABEL = "mlp", "NET", "NN"
+  RESIDUAL_LABEL = "LSANN"  # the method of LS plus this network on its residual
+
+  @property
+  def n_inputs(self) -> int:
+    return self.w1.shape[1] - 1
+
+  @property
+  def n_outputs(self) -> int:
+    return self.w2.shape[0]
+
+  @property
+  def tame(self) -> bool:
+    return False
+
+  def without_outputs(self, outputs: np.ndarray) -> "MLP":
+    """The network with its contribution removed on `outputs` (bool (A,)): their output
+    scaling maps to exactly 0, so every consumer (predict, the C export) sees nothing."""
+    lo = np.where(outputs, 0.0, self.y_scale.lo)
+    hi = np.where(outputs, 0.0, self.y_scale.hi)
+    w2 = np.where(outputs[:, None], 0.0, self.w2)  # a zero scaled output, mapped to 0
+    return dataclasses.replace(self, w2=w2, y_scale=MinMax(lo, hi))
+
+  def leaves(self) -> tuple[dict, dict]:
+    return {"w1": self.w1, "w2": self.w2, "x_lo": self.x_scale.lo, "x_hi": self.x_scale.hi,
+            "y_lo": self.y_scale.lo, "y_hi": self.y_scale.hi}, {}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children=None) -> "MLP":
+    net = cls(arrays["w1"], arrays["w2"], MinMax(arrays["x_lo"], arrays["x_hi"]),
+              MinMax(arrays["y_lo"], arrays["y_hi"]))
+    (h, d1), a = np.shape(net.w1) if np.ndim(net.w1) == 2 else (-1, -1), \
+        np.shape(net.w2)[0] if np.ndim(net.w2) == 2 else -1
+    check_shapes("network", arrays, {"w2": (a, h + 1), "x_lo": (d1 - 1,), "x_hi": (d1 - 1,),
+                                     "y_lo": (a,), "y_hi": (a,)})
+    return net
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """mapminmax, the tanh hidden layer, the linear output, added to acc[]."""
+    h, d1 = self.w1.shape
+    c, a = d1 - 1, self.w2.shape[0]  # the first d1 - 1 inputs
+    xhalf, xmid = self.x_scale._half()
+    yhalf, ymid = self.y_scale._half()
+    xm, xi = em.array(f"{tag}_XMID", xmid), em.array(f"{tag}_XINV", 1.0 / xhalf)
+    w1, w2 = em.array(f"{tag}_W1", self.w1), em.array(f"{tag}_W2", self.w2)
+    ym, yh = em.array(f"{tag}_YMID", ymid), em.array(f"{tag}_YHALF", yhalf)
+    em.costs(macs=h * d1 + a * (h + 1) + c + a, tanh=h, stack=4 * (c + h))
+    em.code += [
+        "  { /* network: mapminmax, tanh hidden layer, linear output */",
+        f"    float s[{c}], hid[{h}];",
+        f"    for (int i = 0; i < {c}; ++i) s[i] = (x[i] - {xm}[i]) * {xi}[i];",
+        f"    for (int k = 0; k < {h}; ++k) {{",
+        f"      float v = {w1}[k * {d1} + {c}];",
+        f"      for (int i = 0; i < {c}; ++i) v += {w1}[k * {d1} + i] * s[i];",
+        "      hid[k] = tanhf(v);",
+        "    }",
+        f"    for (int j = 0; j < {a}; ++j) {{",
+        f"      float v = {w2}[j * {h + 1} + {h}];",
+        f"      for (int k = 0; k < {h}; ++k) v += {w2}[j * {h + 1} + k] * hid[k];",
+        f"      {acc}[j] += v * {yh}[j] + {ym}[j];",
+        "    }",
+        "  }"]
 
 
 @dataclasses.dataclass(frozen=True)

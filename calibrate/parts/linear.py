@@ -18,6 +18,7 @@ import numpy as np
 import scipy.linalg
 import scipy.linalg.lapack
 
+from calibrate.parts.base import Part, check_shapes
 from util import errors
 
 
@@ -27,7 +28,7 @@ class Method(enum.Enum):
 
 
 @dataclasses.dataclass(frozen=True)
-class LinearFit:
+class LinearFit(Part):
   """F ~ features(V) @ coef + bias, features = powers 1..degree of (V - mean) / scale.
 
   Attributes:
@@ -52,6 +53,56 @@ class LinearFit:
   def predict(self, v: np.ndarray) -> np.ndarray:
     """(N, A) forces from (N, C) counts."""
     return self.features(v) @ self.coef + self.bias
+
+  NAME, C_TAG = "linear", "LIN"
+
+  @property
+  def label(self) -> str:
+    return "LS" if self.degree == 1 else "POLY"
+
+  @property
+  def n_inputs(self) -> int:
+    return len(self.mean)
+
+  @property
+  def n_outputs(self) -> int:
+    return self.coef.shape[1]
+
+  def leaves(self) -> tuple[dict, dict]:
+    return ({f: getattr(self, f) for f in ("mean", "scale", "coef", "bias")},
+            {"rank": self.rank, "degree": self.degree})
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children=None) -> "LinearFit":
+    fit = cls(arrays["mean"], arrays["scale"], arrays["coef"], arrays["bias"],
+              int(spec["rank"]), int(spec["degree"]))
+    c, a = len(fit.mean), fit.bias.shape[0] if fit.bias.ndim == 1 else -1
+    check_shapes("linear stage", arrays, {"mean": (c,), "scale": (c,),
+                                          "coef": (c * fit.degree, a), "bias": (a,)})
+    return fit
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """Standardise, then each power of each channel times its row of coefficients."""
+    inv = np.where(self.scale > 0, 1.0 / np.where(self.scale > 0, self.scale, 1.0), 0.0)
+    mean, scale = em.array(f"{tag}_MEAN", self.mean), em.array(f"{tag}_INV_SCALE", inv)
+    coef = em.array(f"{tag}_COEF", self.coef)  # (C * degree, A), row-major
+    bias = em.array(f"{tag}_BIAS", self.bias)
+    a, d = self.coef.shape[1], self.degree
+    em.costs(macs=self.coef.size + c * (d - 1), stack=4 * c)
+    em.code += [
+        f"  {{ /* {'linear' if d == 1 else f'polynomial, degree {d}'} */",
+        f"    float z[{c}];",
+        f"    for (int i = 0; i < {c}; ++i) z[i] = (x[i] - {mean}[i]) * {scale}[i];",
+        f"    for (int j = 0; j < {a}; ++j) {acc}[j] += {bias}[j];",
+        f"    for (int i = 0; i < {c}; ++i) {{",
+        "      float p = z[i];",
+        f"      for (int d = 0; d < {d}; ++d) {{",
+        f"        const float *row = &{coef}[(d * {c} + i) * {a}];",
+        f"        for (int j = 0; j < {a}; ++j) {acc}[j] += row[j] * p;",
+        "        p *= z[i];",
+        "      }",
+        "    }",
+        "  }"]
 
 
 def check_array(a, name: str, columns: int | None = None) -> np.ndarray:

@@ -33,7 +33,8 @@ from typing import Optional
 import numpy as np
 from scipy import signal
 
-from calibrate import linear
+from calibrate.cexport.emitter import literal
+from calibrate.parts import linear
 from util import errors
 
 
@@ -197,36 +198,131 @@ class Memory:
       parts.append(d)
     return np.concatenate(parts, axis=1)
 
-  def arrays(self) -> tuple[dict, dict]:
-    """(arrays, JSON-able settings) for an estimator file."""
+  NAME = "memory"
+
+  def children(self) -> dict:
+    return {}
+
+  def settings(self) -> dict:
+    """Its JSON-able settings (kept in `Info.settings` and in the file)."""
     meta = {"channels": self.channels, "dt": self.dt, "taus": list(self.taus),
             "differences": self.differences}
-    arrays = {}
     if self.tare is not None:
       meta["tare"] = dataclasses.asdict(self.tare)
-      arrays["memory_reference"] = self.reference
+      if self.detector is not None:
+        meta["detector_rank"] = self.detector.rank
+    return meta
+
+  def leaves(self) -> tuple[dict, dict]:
+    arrays = {}
+    if self.tare is not None:
+      arrays["reference"] = self.reference
       if self.detector is not None:
         for f in ("mean", "scale", "coef", "bias"):
-          arrays[f"memory_detector_{f}"] = getattr(self.detector, f)
-        meta["detector_rank"] = self.detector.rank
-    return arrays, meta
+          arrays[f"detector_{f}"] = getattr(self.detector, f)
+    return arrays, self.settings()
 
-  @staticmethod
-  def from_saved(meta: dict, arrays: dict) -> "Memory":
+  @classmethod
+  def from_leaves(cls, spec: dict, arrays: dict, children=None) -> "Memory":
     tare = detector = reference = None
-    if "tare" in meta:
-      tare = Tare(**meta["tare"])
-      reference = arrays["memory_reference"]
-      if "memory_detector_coef" in arrays:
-        detector = linear.LinearFit(*(arrays[f"memory_detector_{f}"]
-                                      for f in ("mean", "scale", "coef", "bias")),
-                                    int(meta["detector_rank"]), 1)
-    mem = Memory(int(meta["channels"]), float(meta["dt"]), tuple(map(float, meta["taus"])),
-                 bool(meta["differences"]), tare, detector, reference)
+    if "tare" in spec:
+      tare = Tare(**spec["tare"])
+      reference = arrays["reference"]
+      if "detector_coef" in arrays:
+        detector = linear.LinearFit.from_leaves(
+            {"rank": spec["detector_rank"], "degree": 1},
+            {f: arrays[f"detector_{f}"] for f in ("mean", "scale", "coef", "bias")})
+    mem = cls(int(spec["channels"]), float(spec["dt"]), tuple(map(float, spec["taus"])),
+              bool(spec["differences"]), tare, detector, reference)
     mem.validate()
     if reference is not None and reference.shape != (mem.channels,):
       raise ValueError("the tare's reference does not fit the channels")
+    if detector is not None and detector.n_inputs != mem.channels:
+      raise ValueError("the tare's detector does not fit the channels")
     return mem
+
+  def emit_front(self, em, raw: str) -> list[str]:
+    """C lines that turn this sample's inputs raw[] into the front end's features x[]
+    (`calibrate.temporal.Memory.features`, streamed): the tare's state machine, then each
+    channel's high-pass at every time constant and its first difference. The state lives
+    in static variables that `estimate_reset` sets to a recording's start."""
+    c, t = self.channels, len(self.taus)
+    lines = []
+    if self.tare is not None:
+      if self.detector is None:
+        raise errors.SettingError("this estimator tares by a contact flag, which the C export "
+                                  "does not read: fit it with a tare from the counts "
+                                  "(--track-drift NEWTONS)")
+      tr, d = self.tare, self.detector
+      ax, hold = tr.axis, int(tr.hold)
+      inv = np.where(d.scale > 0, 1.0 / np.where(d.scale > 0, d.scale, 1.0), 0.0)
+      unit = em.array("TARE_UNIT", d.coef[:, ax] * inv)
+      dmean, ref = em.array("TARE_DET_MEAN", d.mean), em.array("TARE_REF", self.reference)
+      em.state += [f"static float tare_judge[{c}], tare_now[{c}], tare_sum[{c}];",
+                     f"static float tare_ring[{hold}][{c}];", "static int tare_run, tare_n;"]
+      em.session_resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] "
+                              f"= tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
+      em.macs += 3 * c + 2
+      lines += [
+          "  { /* drift tracking: unloaded while the detector's normal force stays within",
+          f"     * +-{tr.threshold:g} for {2 * hold + 1} samples; then the offset is the mean of "
+          "the", f"     * interval's counts from {hold} samples after its start to {hold} "
+          "samples back,", "     * less their level at no load */",
+          "    for (int pass = 0; pass < 2; ++pass) {",
+          f"      float fz = {literal(d.bias[ax])};",
+          f"      for (int i = 0; i < {c}; ++i) fz += {unit}[i] * ({raw}[i] - {dmean}[i] - "
+          "tare_judge[i]);",
+          f"      if (fabsf(fz) < {literal(tr.threshold)}) {{",
+          f"        float *slot = tare_ring[tare_run % {hold}];",
+          f"        if (tare_run >= {2 * hold}) {{  /* the sample {hold} back, if {hold} "
+          "into the interval */",
+          f"          for (int i = 0; i < {c}; ++i) tare_sum[i] += slot[i];",
+          "          ++tare_n;",
+          "        }",
+          f"        for (int i = 0; i < {c}; ++i) slot[i] = {raw}[i] - {ref}[i];",
+          "        ++tare_run;",
+          "        if (tare_n > 0)",
+          f"          for (int i = 0; i < {c}; ++i) tare_now[i] = tare_sum[i] / (float)tare_n;",
+          "        break;",
+          "      }",
+          "      int ended = tare_n > 0;",
+          f"      tare_run = tare_n = 0;",
+          f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
+          "      if (!ended) break;",
+          "      /* an interval ended: this sample is judged again against its offset */",
+          f"      for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i];",
+          "    }",
+          "  }"]
+      now = "tare_now[i]"
+    else:
+      now = "0.0f"
+    if not (t or self.differences):  # the tared counts alone
+      em.macs += c
+      return lines + [f"  for (int i = 0; i < {c}; ++i) x[i] = {raw}[i] - {now};"]
+    em.state += [f"static float mem_raw[{c}], mem_tare[{c}];", "static int mem_fresh = 1;"]
+    em.resets.append("  mem_fresh = 1;")
+    em.macs += 2 * c  # the step and the tared value of each channel
+    if t:
+      alphas = em.array("MEM_ALPHA", np.exp(-self.dt / np.asarray(self.taus)))
+      em.state.append(f"static float mem_hp[{t}][{c}];")
+      em.macs += t * c
+    # the step dx from the raw step (exact for integer counts) less the offset's step: the
+    # high-passes and differences in float32 lose nothing to the counts' level (~2,000)
+    lines += [f"  for (int i = 0; i < {c}; ++i) {{",
+              f"    float dx = mem_fresh ? 0.0f : ({raw}[i] - mem_raw[i]) - ({now} - "
+                   "mem_tare[i]);",
+              f"    x[i] = {raw}[i] - {now};"]
+    if t:  # x - LP_tau(x) kept directly: hp = a (hp + dx), 0 at a recording's start
+      lines += [f"    for (int k = 0; k < {t}; ++k) {{",
+                f"      mem_hp[k][i] = mem_fresh ? 0.0f : {alphas}[k] * (mem_hp[k][i] + dx);",
+                f"      x[{c} * (1 + k) + i] = mem_hp[k][i];",
+                "    }"]
+    if self.differences:
+      lines.append(f"    x[{c * (1 + t)} + i] = dx;")
+    lines += [f"    mem_raw[i] = {raw}[i];", f"    mem_tare[i] = {now};", "  }",
+              "  mem_fresh = 0;"]
+    em.stack = max(em.stack, 4 * self.width)
+    return lines
 
 
 def _runs(segments: Optional[np.ndarray], n: int) -> list[tuple[int, int]]:

@@ -32,7 +32,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from calibrate import mlp
+from calibrate.parts import mlp
+from calibrate.cexport.emitter import literal
+from calibrate.parts.base import Part, Stream, starts  # noqa: F401 (starts: gru.starts)
 from util import errors, fields
 from util.fields import setting
 
@@ -81,7 +83,7 @@ class GRUConfig:
 
 
 @dataclasses.dataclass(frozen=True)
-class GRU:
+class GRU(Part):
   """A fitted cell and its scalings (plain float64 arrays).
 
   Attributes:
@@ -128,6 +130,144 @@ class GRU:
     p = {k: jnp.asarray(getattr(self, k)) for k in ("w", "u", "b", "c", "v", "v0")}
     out = _run_reset(p, xs, jnp.asarray(starts, bool))
     return np.asarray(out) * self.y_scale + self.y_mean
+
+  NAME, C_TAG, LABEL = "gru", "GRU", "GRU"
+  RESIDUAL_LABEL = "GRU"  # LS plus this network on its residual is still called GRU
+
+  @property
+  def n_inputs(self) -> int:
+    return self.inputs
+
+  @property
+  def n_outputs(self) -> int:
+    return self.v.shape[0]
+
+  @property
+  def tame(self) -> bool:
+    return False
+
+  def mean_spread(self, x, stream=None):
+    first = (stream or Stream()).starts(len(x))
+    return self.predict(x[:, :self.inputs], first), None
+
+  def leaves(self) -> tuple[dict, dict]:
+    return {f: getattr(self, f) for f in self.FIELDS}, {}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children=None) -> "GRU":
+    net = cls(*(arrays[f] for f in cls.FIELDS))
+    net.check()
+    return net
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """The network on the first D of x[], its state in a static array that
+    `estimate_restart` zeroes; sigmoid(v) as 0.5 + 0.5 tanhf(v / 2). In Q16 when the
+    emitter asks for fixed point (`_emit_fixed`)."""
+    if em.fixed:
+      return self._emit_fixed(em, tag, acc)
+    h, d, a = self.hidden, self.inputs, self.v.shape[0]
+    xm, xi, w, u, b, c, v, v0, ym, ys = self._arrays(em, tag, em.array, "")
+    em.state.append(f"static float {tag}_H[{h}];")
+    em.resets.append(f"  for (int k = 0; k < {h}; ++k) {tag}_H[k] = 0.0f;")
+    em.costs(macs=d + 3 * h * (d + h) + 6 * h + a * (h + 1), tanh=3 * h,
+             stack=4 * (d + 4 * h))
+    em.code += [
+        "  { /* recurrent network (GRU): standardise, gates r, z, n, new state, linear output */",
+        f"    float s[{d}], g[{3 * h}], hn[{h}];",
+        f"    for (int i = 0; i < {d}; ++i) s[i] = (x[i] - {xm}[i]) * {xi}[i];",
+        f"    for (int k = 0; k < {3 * h}; ++k) {{",
+        f"      float e = {b}[k];",
+        f"      for (int i = 0; i < {d}; ++i) e += {w}[k * {d} + i] * s[i];",
+        "      g[k] = e;",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {{",
+        f"      float ur = 0.0f, uz = 0.0f, un = {c}[k];",
+        f"      for (int j = 0; j < {h}; ++j) {{",
+        f"        ur += {u}[k * {h} + j] * {tag}_H[j];",
+        f"        uz += {u}[({h} + k) * {h} + j] * {tag}_H[j];",
+        f"        un += {u}[({2 * h} + k) * {h} + j] * {tag}_H[j];",
+        "      }",
+        "      float r = 0.5f + 0.5f * tanhf(0.5f * (g[k] + ur));",
+        f"      float z = 0.5f + 0.5f * tanhf(0.5f * (g[{h} + k] + uz));",
+        f"      float n = tanhf(g[{2 * h} + k] + r * un);",
+        f"      hn[k] = (1.0f - z) * n + z * {tag}_H[k];",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {tag}_H[k] = hn[k];",
+        f"    for (int j = 0; j < {a}; ++j) {{",
+        f"      float e = {v0}[j];",
+        f"      for (int k = 0; k < {h}; ++k) e += {v}[j * {h} + k] * {tag}_H[k];",
+        f"      {acc}[j] += e * {ys}[j] + {ym}[j];",
+        "    }",
+        "  }"]
+
+  def _arrays(self, em, tag: str, weights, prefix: str) -> list[str]:
+    """The names of its arrays: the input and output scalings in float, the weights written
+    by `weights` (`em.array`, or `em.ints` for Q16) under names with `prefix`."""
+    names = [em.array(f"{tag}_XMEAN", self.x_mean), em.array(f"{tag}_XINV", 1 / self.x_scale)]
+    names += [weights(f"{tag}_{prefix}{f.upper()}", getattr(self, f))
+              for f in ("w", "u", "b", "c", "v", "v0")]
+    return names + [em.array(f"{tag}_YMEAN", self.y_mean),
+                    em.array(f"{tag}_YSCALE", self.y_scale)]
+
+  def _emit_fixed(self, em, tag: str, acc: str) -> None:
+    """The gates and the state in Q16 fixed point (int32 values, int64 sums; tanh from a
+    513-entry table at steps of 1/64, linear between: within 2.3e-5 of tanh), which in float
+    cost the Cortex-M3 its soft-float tanhf calls. Inputs are standardised and the output
+    scaled in float."""
+    h, d, a = self.hidden, self.inputs, self.v.shape[0]
+    if "TANH_Q16" not in "".join(em.arrays):
+      em.ints("TANH_Q16", np.tanh(np.arange(513) / 64.0))
+      em.state += TANH_Q16_CODE
+    xm, xi, w, u, b, c, v, v0, ym, ys = self._arrays(em, tag, em.ints, "Q")
+    em.state.append(f"static int32_t {tag}_HQ[{h}];")
+    em.resets.append(f"  for (int k = 0; k < {h}; ++k) {tag}_HQ[k] = 0;")
+    # the float standardisation and output scaling; a float-to-int conversion (lrintf) costs
+    # about two multiply-adds (measured with the rest: 160 instructions)
+    em.costs(macs=3 * d + 2 * a, fixed_macs=3 * h * (d + h) + 2 * h + a * h,
+             fixed_tanh=3 * h, stack=4 * (d + 4 * h))
+    em.code += [
+        "  { /* recurrent network (GRU) in Q16 fixed point; >> on negative values is the",
+        "     * arithmetic shift of gcc, clang and armcc */",
+        f"    int32_t s[{d}], g[{3 * h}], hn[{h}];",
+        f"    for (int i = 0; i < {d}; ++i) s[i] = (int32_t)lrintf((x[i] - {xm}[i]) * {xi}[i] "
+        "* 65536.0f);",
+        f"    for (int k = 0; k < {3 * h}; ++k) {{",
+        f"      int64_t e = (int64_t){b}[k] * 65536;",
+        f"      for (int i = 0; i < {d}; ++i) e += (int64_t){w}[k * {d} + i] * s[i];",
+        "      g[k] = (int32_t)(e >> 16);",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {{",
+        f"      int64_t ur = 0, uz = 0, un = (int64_t){c}[k] * 65536;",
+        f"      for (int j = 0; j < {h}; ++j) {{",
+        f"        ur += (int64_t){u}[k * {h} + j] * {tag}_HQ[j];",
+        f"        uz += (int64_t){u}[({h} + k) * {h} + j] * {tag}_HQ[j];",
+        f"        un += (int64_t){u}[({2 * h} + k) * {h} + j] * {tag}_HQ[j];",
+        "      }",
+        "      int32_t r = (65536 + tanh_q16((g[k] + (int32_t)(ur >> 16)) / 2)) / 2;",
+        f"      int32_t z = (65536 + tanh_q16((g[{h} + k] + (int32_t)(uz >> 16)) / 2)) / 2;",
+        f"      int32_t n = tanh_q16(g[{2 * h} + k] + (int32_t)(((int64_t)r * (int32_t)(un >> "
+        "16)) >> 16));",
+        f"      hn[k] = {tag}_HQ[k] + (int32_t)(((int64_t)(65536 - z) * (n - {tag}_HQ[k])) >> 16);",
+        "    }",
+        f"    for (int k = 0; k < {h}; ++k) {tag}_HQ[k] = hn[k];",
+        f"    for (int j = 0; j < {a}; ++j) {{",
+        f"      int64_t e = (int64_t){v0}[j] * 65536;",
+        f"      for (int k = 0; k < {h}; ++k) e += (int64_t){v}[j * {h} + k] * {tag}_HQ[k];",
+        f"      {acc}[j] += (float)(e >> 16) * {literal(1 / 65536)} * {ys}[j] + {ym}[j];",
+        "    }",
+        "  }"]
+
+
+TANH_Q16_CODE = [
+    "static int32_t tanh_q16(int32_t v) {  /* Q16 in and out: the table, linear between */",
+    "  int32_t m = v < 0 ? -v : v, y;",
+    "  if (m >= (8 << 16)) y = 65536;",
+    "  else {",
+    "    int32_t k = m >> 10, f = m & 1023;",
+    "    y = TANH_Q16[k] + (((TANH_Q16[k + 1] - TANH_Q16[k]) * f) >> 10);",
+    "  }",
+    "  return v < 0 ? -y : y;",
+    "}"]
 
 
 def _cell(p, h, x):
@@ -332,15 +472,3 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
             x_mean, x_scale, y_mean, y_scale)
   return net, TrainResult(t, stop, np.array(hist), best_check * config.check, seconds,
                           compile_s, tuple(val_units))
-
-
-def starts(segments: Optional[np.ndarray], n: int) -> np.ndarray:
-  """(N,) bool: the first sample of each recording (each change of label)."""
-  out = np.zeros(n, bool)
-  if n:
-    out[0] = True
-  if segments is not None and n > 1:
-    s = np.asarray(segments)
-    out[1:] = s[1:] != s[:-1]
-  return out
-

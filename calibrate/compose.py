@@ -1,0 +1,309 @@
+"""Estimators built from parts, as scikit-learn builds them from estimators.
+
+- `Residual(base, residual)`: a base plus a part fitted on its residual (LSANN: LS plus a
+  network; GRU: LS plus a recurrent network), as `TransformedTargetRegressor` inverts a
+  transform at predict; here the transform y - base(x) depends on x, so the two add.
+- `Mean(members)`: the mean of parts fitted from several seeds (`VotingRegressor`), and their
+  spread.
+- `PerOutput(parts, pick, lo, hi)`: each output from one part (`fit_auto`'s choice), the
+  network parts continued along the LS part's plane beyond the training box [lo, hi].
+- `Chain(front, stage)`: a temporal front end (`calibrate.parts.memory.Memory`) turning the
+  recording into features, then a stage reading them (`Pipeline`; equinox marks its
+  stateful layers the same way).
+
+Each composite predicts, lists its children for the file, and writes its C as its children's
+blocks in order: the tags and the order are the exported C's contract.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional
+
+import numpy as np
+
+from calibrate.cexport.emitter import literal
+from calibrate.parts.base import Part, Stream, check_shapes
+
+
+@dataclasses.dataclass(frozen=True)
+class Residual(Part):
+  """base(x) + residual(x), the residual part reading the first of the base's inputs."""
+  base: Part
+  residual: Part
+  NAME = "residual"
+
+  @property
+  def label(self) -> str:
+    return self.residual.RESIDUAL_LABEL
+
+  @property
+  def n_inputs(self) -> int:
+    return max(self.base.n_inputs, self.residual.n_inputs)
+
+  @property
+  def n_outputs(self) -> int:
+    return self.base.n_outputs
+
+  @property
+  def tame(self) -> bool:
+    return self.base.tame and self.residual.tame
+
+  def children(self) -> dict:
+    return {"base": self.base, "residual": self.residual}
+
+  def mean_spread(self, x, stream=None):
+    return (self.base.mean_spread(x, stream)[0]
+            + self.residual.mean_spread(x, stream)[0]), None
+
+  def leaves(self):
+    return {}, {}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children) -> "Residual":
+    out = cls(children["base"], children["residual"])
+    if out.residual.n_outputs != out.base.n_outputs or \
+       out.residual.n_inputs > out.base.n_inputs:
+      raise ValueError(f"its {out.residual.NAME} part does not fit its {out.base.NAME} stage")
+    return out
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    self.base.emit_c(em, f"{tag}_{self.base.C_TAG}", c, acc)
+    self.residual.emit_c(em, f"{tag}_{self.residual.C_TAG}", c, acc)
+
+
+@dataclasses.dataclass(frozen=True)
+class Mean(Part):
+  """The mean of members of one method (networks from several seeds) and their spread."""
+  members: tuple
+  NAME = "mean"
+
+  @property
+  def label(self) -> str:
+    return self.members[0].label
+
+  @property
+  def n_inputs(self) -> int:
+    return self.members[0].n_inputs
+
+  @property
+  def n_outputs(self) -> int:
+    return self.members[0].n_outputs
+
+  @property
+  def tame(self) -> bool:
+    return all(m.tame for m in self.members)
+
+  def children(self) -> dict:
+    return {str(k): m for k, m in enumerate(self.members)}
+
+  def mean_spread(self, x, stream=None):
+    each = np.stack([m.mean_spread(x, stream)[0] for m in self.members])
+    return each.mean(axis=0), each.std(axis=0)
+
+  def leaves(self):
+    return {}, {}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children) -> "Mean":
+    out = cls(tuple(children[str(k)] for k in range(len(children))))
+    if not out.members or len({(m.label, m.n_inputs, m.n_outputs)
+                               for m in out.members}) != 1:
+      raise ValueError("its members are not of one method and shape")
+    return out
+
+  def shared_base(self) -> Optional[Part]:
+    """The base stage every member holds, equal to the last bit (an ensemble of LSANN fitted
+    on one LS stage), or None."""
+    bases = [getattr(m, "base", None) for m in self.members]
+    if len(bases) < 2 or any(b is None for b in bases):
+      return None
+    first = bases[0].leaves()[0]
+    if all(b.NAME == bases[0].NAME and all(np.array_equal(b.leaves()[0][k], a)
+                                           for k, a in first.items()) for b in bases[1:]):
+      return bases[0]
+    return None
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """Each member under M{k}; a shared base once, into lin[] (it is not averaged)."""
+    shared = self.shared_base()
+    if shared is not None:
+      shared.emit_c(em, f"{tag}SHARED_{shared.C_TAG}", c, acc="lin")
+    for k, m in enumerate(self.members):
+      sub = f"{tag}M{k}"
+      if shared is not None:
+        m.residual.emit_c(em, f"{sub}_{m.residual.C_TAG}", c, acc)
+      else:
+        emit_member(m, em, sub, c, acc)
+
+
+def emit_member(part: Part, em, tag: str, c: int, acc: str = "acc") -> None:
+  """One estimator's stages under `tag`: a family's block tagged with its C_TAG, or a
+  composite's children in order."""
+  if part.children():
+    part.emit_c(em, tag, c, acc)
+  else:
+    part.emit_c(em, f"{tag}_{part.C_TAG}", c, acc)
+
+
+def emit_estimate(part: Part, em, label: str, c: int, a: int, dest: str,
+                  prefix: str = "") -> list[str]:
+  """C lines that compute one estimator (or an ensemble) from x[] into dest[a]: its block
+  between an accumulator acc[] and lin[], the shared base of an ensemble, which is not
+  averaged; the members' mean is acc / their count."""
+  before = len(em.code)
+  if isinstance(part, Mean):
+    part.emit_c(em, prefix, c)
+    n, mean = len(part.members), f", mean of {len(part.members)}"
+  else:
+    emit_member(part, em, f"{prefix}M0", c)
+    n, mean = 1, ""
+  code = em.take(before)
+  em.macs += a * n
+  return ([f"  {{ /* {label}{mean} */", f"    float acc[{a}], lin[{a}];",
+           f"    for (int j = 0; j < {a}; ++j) {{ acc[j] = 0.0f; lin[j] = 0.0f; }}"]
+          + ["  " + line for line in code]
+          + [f"    for (int j = 0; j < {a}; ++j) {dest}[j] = lin[j] + acc[j] * "
+             f"{literal(1.0 / n)};", "  }"])
+
+
+@dataclasses.dataclass(frozen=True)
+class PerOutput(Part):
+  """Each output j from part pick[j]. Beyond the training box [lo, hi] (the raw inputs'),
+  each part that is not `tame` (a network) is evaluated at the box's nearest point and
+  continued along the plane of the `guard` part (the LS one): part(clip(x)) + LS(x) -
+  LS(clip(x)). A network's held-out score says nothing of inputs past the box, where it may
+  bend anywhere (measured on the footpad's 1.5 mm presses past 0.5-1 mm training: NN-only Fz
+  NRMSE 6.6 % where LS keeps 0.9 %); the plane is the tamest continuation the data support,
+  and it meets the network at the box's faces."""
+  parts: tuple
+  pick: tuple
+  lo: Optional[np.ndarray] = None
+  hi: Optional[np.ndarray] = None
+  NAME, LABEL = "per_output", "AUTO"
+
+  @property
+  def n_inputs(self) -> int:
+    return self.parts[0].n_inputs
+
+  @property
+  def n_outputs(self) -> int:
+    return len(self.pick)
+
+  @property
+  def tame(self) -> bool:
+    return all(self.parts[k].tame for k in self.pick)
+
+  @property
+  def guard(self) -> Optional[int]:
+    """The index of the LS part whose plane carries the network parts beyond the box (None:
+    no LS part, no network part, or no box)."""
+    labels = [p.label for p in self.parts]
+    if self.lo is None or all(p.tame for p in self.parts) or "LS" not in labels:
+      return None
+    return labels.index("LS")
+
+  def children(self) -> dict:
+    return {str(k): p for k, p in enumerate(self.parts)}
+
+  def mean_spread(self, x, stream=None):
+    each = [p.mean_spread(x, stream) for p in self.parts]
+    ls = self.guard
+    if ls is not None and ((x < self.lo) | (x > self.hi)).any():
+      inside = np.clip(x, self.lo, self.hi)
+      plane = self.parts[ls].mean_spread(x)[0] - self.parts[ls].mean_spread(inside)[0]
+      for k, p in enumerate(self.parts):
+        if not p.tame:
+          mean, spread = p.mean_spread(inside)
+          each[k] = (mean + plane, spread)
+    cols = np.arange(len(self.pick))
+    mean = np.stack([m for m, _ in each])[list(self.pick), :, cols].T
+    spreads = [np.zeros_like(m) if s is None else s for m, s in each]
+    return mean, np.stack(spreads)[list(self.pick), :, cols].T
+
+  def leaves(self):
+    arrays = {} if self.lo is None else {"lo": self.lo, "hi": self.hi}
+    return arrays, {"pick": list(self.pick)}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children) -> "PerOutput":
+    parts = tuple(children[str(k)] for k in range(len(children)))
+    pick = tuple(int(k) for k in spec["pick"])
+    if not parts or not all(0 <= k < len(parts) for k in pick) or \
+       any(p.n_outputs != len(pick) for p in parts):
+      raise ValueError("its parts do not fit its outputs")
+    if "lo" in arrays:
+      c = parts[0].n_inputs
+      check_shapes("training box", arrays, {"lo": (c,), "hi": (c,)})
+    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"))
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> list[str]:
+    """Each part into its own row of part[K][A], then each output from its part's row; the
+    network parts beyond the box as `mean_spread` computes them. Returns the lines (they
+    write out[] directly)."""
+    a = self.n_outputs
+    body = [f"  float part[{len(self.parts)}][{a}];"]
+    ls = self.guard
+    if ls is not None:
+      lo, hi = em.array("BOX_LO", self.lo), em.array("BOX_HI", self.hi)
+      body += [f"  float inside[{c}], plane[{a}];",
+               f"  for (int i = 0; i < {c}; ++i) inside[i] = x[i] < {lo}[i] ? {lo}[i] : "
+               f"(x[i] > {hi}[i] ? {hi}[i] : x[i]);"]
+      # the LS part at the box's nearest point (x shadowed by it in the block)
+      body += self._at_box(emit_estimate(self.parts[ls], em, self.parts[ls].label, c, a,
+                                           "plane", "BOX_"))
+    for k, part in enumerate(self.parts):
+      lines = emit_estimate(part, em, part.label, c, a, f"part[{k}]", f"P{k}_")
+      body += self._at_box(lines) if ls is not None and not part.tame else lines
+    for j, k in enumerate(self.pick):
+      guarded = ls is not None and not self.parts[k].tame
+      body.append(f"  out[{j}] = part[{k}][{j}]" + (f" + part[{ls}][{j}] - plane[{j}];"
+                                                    if guarded else ";"))
+    return body
+
+  @staticmethod
+  def _at_box(lines: list[str]) -> list[str]:
+    return ["  {", "    const float *x = inside;"] + ["  " + line for line in lines] + ["  }"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Chain:
+  """A temporal front end, then a stage reading its features (the stage's inputs are the
+  first of them). Its inputs are the raw channels, read as recordings in time order."""
+  front: object  # calibrate.parts.memory.Memory
+  stage: Part
+  NAME = "chain"
+
+  @property
+  def label(self) -> str:
+    return self.stage.label
+
+  @property
+  def n_inputs(self) -> int:
+    return self.front.channels
+
+  @property
+  def n_outputs(self) -> int:
+    return self.stage.n_outputs
+
+  @property
+  def tame(self) -> bool:
+    return self.stage.tame
+
+  def children(self) -> dict:
+    return {"front": self.front, "stage": self.stage}
+
+  def mean_spread(self, x, stream=None):
+    stream = stream or Stream()
+    return self.stage.mean_spread(self.front.features(x, *stream), stream)
+
+  def leaves(self):
+    return {}, {}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children) -> "Chain":
+    front, stage = children["front"], children["stage"]
+    if stage.n_inputs > front.width or (stage.label != "NN" and stage.n_inputs != front.width):
+      raise ValueError(f"its stages read {stage.n_inputs} features, its temporal front end "
+                       f"gives {front.width}")
+    return cls(front, stage)

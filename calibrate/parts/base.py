@@ -1,0 +1,109 @@
+"""What every part of an estimator answers to: a family's fitted model, or a composite of parts.
+
+A part reads the first `n_inputs` columns of what it is given (a network fitted on fewer
+inputs than the stage before it reads the first of them) and gives `n_outputs` columns. An
+estimator is a tree of parts (`calibrate.compose`); its file keeps the tree's structure as
+JSON and each part's arrays under the part's path (`calibrate.store`); its C is each part's
+block, in the tree's order (`calibrate.cexport`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar, NamedTuple, Optional
+
+import numpy as np
+
+
+class Stream(NamedTuple):
+  """How samples sit in time, for the parts that read the past: `segments` (N,) each sample's
+  recording (filters and recurrent states start afresh where it changes), `contact` (N,) a
+  contact flag for the drift tare, `sessions` (N,) the runs of segments a tare carries
+  through. None: one recording."""
+  segments: Optional[np.ndarray] = None
+  contact: Optional[np.ndarray] = None
+  sessions: Optional[np.ndarray] = None
+
+  def starts(self, n: int) -> np.ndarray:
+    """(n,) True at the first sample of each recording (of each session without segments)."""
+    return starts(self.segments if self.segments is not None else self.sessions, n)
+
+
+def starts(labels: Optional[np.ndarray], n: int) -> np.ndarray:
+  """(n,) bool: the first sample of each recording (each change of label; None: one)."""
+  out = np.zeros(n, bool)
+  if n:
+    out[0] = True
+  if labels is not None and n > 1:
+    s = np.asarray(labels)
+    out[1:] = s[1:] != s[:-1]
+  return out
+
+
+class Part:
+  """The protocol (a base class for its defaults).
+
+  Class attributes:
+    NAME: the part's tag in an estimator file ("linear", "mlp", "residual"...).
+    C_TAG: the infix of its C arrays ("LIN", "NET"...).
+    LABEL: the method a user knows it by when it stands alone ("LS", "NN"...); a composite
+      derives its own (`label`).
+  """
+  NAME: ClassVar[str] = ""
+  C_TAG: ClassVar[str] = ""
+  LABEL: ClassVar[str] = ""
+
+  @property
+  def n_inputs(self) -> int:
+    raise NotImplementedError
+
+  @property
+  def n_outputs(self) -> int:
+    raise NotImplementedError
+
+  @property
+  def label(self) -> str:
+    return self.LABEL
+
+  @property
+  def tame(self) -> bool:
+    """Whether the part stays close to a plane beyond its training box (a linear or
+    polynomial stage continued along its tangent); a network may bend anywhere there."""
+    return True
+
+  def children(self) -> dict[str, "Part"]:
+    """The parts a composite holds, by name (a family's fitted model holds none)."""
+    return {}
+
+  def mean_spread(self, x: np.ndarray, stream: Optional[Stream] = None
+                  ) -> tuple[np.ndarray, Optional[np.ndarray]]:
+    """(N, A) prediction and the spread across members (None where there are none) from
+    (N, >= n_inputs) inputs, unchecked."""
+    return self.predict(x[:, :self.n_inputs]), None
+
+  def leaves(self) -> tuple[dict[str, np.ndarray], dict]:
+    """(its own arrays by name, its own JSON-able settings) for an estimator file."""
+    raise NotImplementedError
+
+  @classmethod
+  def from_leaves(cls, spec: dict, arrays: dict[str, np.ndarray],
+                  children: dict[str, "Part"]) -> "Part":
+    """The part from what `leaves` gave; ValueError when the arrays do not fit together."""
+    raise NotImplementedError
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """Appends to `em` the C block that adds this part's output to acc[] from x[] (the
+    first `c` inputs are there); `tag` prefixes its arrays."""
+    raise NotImplementedError
+
+
+def check_shapes(what: str, arrays: dict[str, np.ndarray], shapes: dict[str, tuple]) -> None:
+  """Raises ValueError naming the arrays of `what` whose shape is not the one expected."""
+  bad = [k for k, s in shapes.items() if np.shape(arrays[k]) != s]
+  if bad:
+    raise ValueError(f"the {what}'s arrays {', '.join(bad)} do not fit together")
+
+
+def replace(part, **changes):
+  """A frozen part with some fields changed."""
+  return dataclasses.replace(part, **changes)
