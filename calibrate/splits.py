@@ -148,3 +148,29 @@ def folds(g: Groups, k: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
   splitter = GroupKFold(n_splits=k)
   idx = np.arange(len(g.labels))
   return [(tr, va) for tr, va in splitter.split(idx, groups=perm[g.labels])]
+
+
+def validation(n: int, fraction: float, seed: int, block: Optional[int] = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+  """Random (train, validation) indices from one integer seed.
+
+  block=None draws single samples (MATLAB `dividerand`, the paper's): at 1 kHz every
+  validation sample then sits beside training samples, and early stopping rarely fires.
+  With `block` (samples), whole contiguous blocks of that length are held out instead.
+  """
+  if not 0 < fraction < 1:
+    raise errors.SettingError(f"validation fraction {fraction!r} is out of range: allowed (0, 1)")
+  rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
+  if block is None:
+    idx = rng.permutation(n)
+    n_val = max(1, int(round(fraction * n)))
+    return np.sort(idx[n_val:]), np.sort(idx[:n_val])
+  if not 1 <= block <= n // 2:
+    raise errors.SettingError(f"validation block {block!r} is out of range: allowed 1 to "
+                              f"{n // 2} samples (two blocks at least)")
+  starts = np.arange(0, n, block)
+  n_val = max(1, int(round(fraction * len(starts))))
+  held = np.zeros(n, bool)
+  for b in rng.permutation(len(starts))[:n_val]:
+    held[starts[b]:starts[b] + block] = True
+  return np.flatnonzero(~held), np.flatnonzero(held)

@@ -5,7 +5,7 @@ import pytest
 
 from benchmarks.footpad import table as footpad_table
 from benchmarks.registry import Context
-from calibrate import estimators
+from calibrate import estimators, splits
 from calibrate.parts import mlp
 
 FAST = mlp.LMConfig(hidden=5, epochs=30)
@@ -151,18 +151,18 @@ def test_lsann_and_nn_agree_within_one_and_a_half_times_in_shear(table):
 
 
 def test_blocks_split_holds_out_whole_contiguous_blocks():
-  tr, va = estimators.split_validation(10_000, 0.15, seed=3, block=1000)
+  tr, va = splits.validation(10_000, 0.15, seed=3, block=1000)
   assert len(np.intersect1d(tr, va)) == 0 and len(tr) + len(va) == 10_000
   assert len(va) == 2000  # round(0.15 x 10 blocks) = 2 blocks
   starts = va[np.flatnonzero(np.diff(np.concatenate([[-2], va])) > 1)]
   assert all(s % 1000 == 0 for s in starts) and len(starts) <= 2
-  again = estimators.split_validation(10_000, 0.15, seed=3, block=1000)
+  again = splits.validation(10_000, 0.15, seed=3, block=1000)
   np.testing.assert_array_equal(again[1], va)
   # the paper's split: single samples, almost every one beside a training sample
-  _, single = estimators.split_validation(10_000, 0.15, seed=3)
+  _, single = splits.validation(10_000, 0.15, seed=3)
   assert np.mean(np.diff(single) == 1) < 0.3
   with pytest.raises(ValueError, match="validation block"):
-    estimators.split_validation(100, 0.15, seed=0, block=80)
+    splits.validation(100, 0.15, seed=0, block=80)
 
 
 def test_fits_on_several_processes_equal_serial_ones_to_the_bit():

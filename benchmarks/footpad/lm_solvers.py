@@ -158,7 +158,7 @@ def _problem(ctx) -> tuple:
   a random subset (`SAMPLES`, `QUICK_SAMPLES`) with a 15 % validation split."""
   import jax
   import jax.numpy as jnp
-  from calibrate import estimators
+  from calibrate import estimators, splits
   from calibrate.parts import mlp
   from sim.footpad import protocol, scene as scene_lib
   scene = protocol.scenes(ctx.settings)["train"]
@@ -167,7 +167,7 @@ def _problem(ctx) -> tuple:
   data = rec.on_path("asterisk")
   n_want = QUICK_SAMPLES if ctx.quick else SAMPLES
   pick = np.random.default_rng(np.random.SeedSequence([ctx.seed, 2])).permutation(len(data))
-  tr_all, va_all = estimators.split_validation(min(len(data), int(n_want / 0.85)), 0.15,
+  tr_all, va_all = splits.validation(min(len(data), int(n_want / 0.85)), 0.15,
                                                ctx.seed)
   tr, va = pick[tr_all][:n_want], pick[va_all]
   x, y = data.counts[tr], data.wrench[tr, :3]

@@ -34,7 +34,7 @@ import numpy as np
 
 from calibrate.parts import mlp
 from calibrate.cexport.emitter import literal
-from calibrate.parts.base import Part, Stream, starts  # noqa: F401 (starts: gru.starts)
+from calibrate.parts.base import Part, Stream
 from util import errors, fields
 from util.fields import setting
 

@@ -286,7 +286,7 @@ class Memory:
           "        break;",
           "      }",
           "      int ended = tare_n > 0;",
-          f"      tare_run = tare_n = 0;",
+          "      tare_run = tare_n = 0;",
           f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
           "      if (!ended) break;",
           "      /* an interval ended: this sample is judged again against its offset */",

@@ -194,7 +194,7 @@ class _Factored:
                    self.y_mean - self.m_mean @ coef, float(ridge), int(self.keep.sum()))
 
 
-def _factor(x: np.ndarray, y: np.ndarray, degree: int, cross: bool, rcond: float) -> _Factored:
+def factor(x: np.ndarray, y: np.ndarray, degree: int, cross: bool, rcond: float) -> _Factored:
   mean, scale = x.mean(axis=0), x.std(axis=0)
   scale = np.where(scale > 1e-12 * np.maximum(np.abs(mean), 1e-300), scale, 1.0)
   z = (x - mean) / scale
@@ -218,7 +218,7 @@ def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bo
   import warnings
   if not (np.isfinite(ridge) and ridge >= 0):
     raise errors.SettingError(f"ridge={ridge!r} is out of range: allowed [0, inf)")
-  f = _factor(x, y, degree, cross, rcond)
+  f = factor(x, y, degree, cross, rcond)
   out = f.solve(ridge)
   if out.rank < len(f.powers) and ridge == 0:
     warnings.warn(f"polynomial features are rank-deficient ({out.rank} of {len(f.powers)}): "
@@ -227,21 +227,3 @@ def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bo
 
 
 RIDGES = (0.0,) + tuple(10.0 ** k for k in range(-8, 1))  # times the number of samples
-
-
-def choose(x, y, folds, degrees=(1, 2, 3)) -> tuple[int, float, dict]:
-  """(degree, ridge, table) with the lowest grouped cross-validated mean squared error over
-  `folds` ((train, held-out) index pairs): every degree in `degrees`, ridge weights
-  `RIDGES` x the training samples. The SVD of each fold is shared by its ridge weights."""
-  table = {}
-  for deg in degrees:
-    sse = np.zeros(len(RIDGES))
-    for tr, va in folds:
-      f = _factor(x[tr], y[tr], deg, True, 1e-10)
-      for k, r in enumerate(RIDGES):
-        sse[k] += np.sum((f.solve(r * len(tr)).predict(x[va]) - y[va]) ** 2)
-    for k, r in enumerate(RIDGES):
-      table[(deg, r)] = float(sse[k] / len(y))
-  (deg, r), _ = min(table.items(), key=lambda kv: kv[1])
-  return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
-                           for (d, r), v in table.items()}

@@ -1,0 +1,411 @@
+"""Recipes: how each method fits its parts on training data, and the fits built on them.
+
+A recipe (scikit-learn's unfitted estimator: hyperparameters in the constructor, data in
+`fit`) fits one method's parts on (x, y) and says how far they miss on a validation hold-out:
+
+- `LinearRecipe`: LS (degree 1) or the shell paper's per-channel polynomial (degree > 1);
+- `PolyRecipe`: the polynomial with cross terms, ridge-regularised (`calibrate.parts.poly`);
+- `NetworkRecipe`: the network alone (NN) or on LS's residual (LSANN: `compose.Residual`),
+  from one seed or several (an ensemble: `compose.Mean`).
+
+`fit` runs a recipe with the selection it asks for (`calibrate.select`: the poly's degree and
+ridge, the network's width, LSANN's LS-only outputs) and grouped cross-validation for the
+interval; `fit_auto` fits every candidate and picks per output; `calibrate.temporal_fit`
+puts a memory front end before them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from typing import Optional
+
+import numpy as np
+
+from calibrate import compose, select, splits
+from calibrate.fitted import CANDIDATES, Estimator, Kind
+from calibrate.info import Info, data_digest, held_out
+from calibrate.parts import linear, mlp
+from calibrate.parts import poly as poly_lib
+from util import errors
+
+
+@dataclasses.dataclass(frozen=True)
+class Validation:
+  """The validation hold-out of one fit: `fraction` of the samples, whole groups when the
+  fit has groups, else single samples or contiguous blocks of `block` samples."""
+  fraction: float = 0.15
+  block: Optional[int] = None
+
+  def split(self, where, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(train, validation) indices of `where` (a `splits.Groups`, or a sample count)."""
+    if isinstance(where, splits.Groups):
+      return splits.holdout(where, self.fraction, seed)
+    return splits.validation(where, self.fraction, seed, self.block)
+
+
+@dataclasses.dataclass(frozen=True)
+class Fitted:
+  """What a recipe fitted: its members (one, or an ensemble's), each one's validation
+  residual spread (A,) and its training run (None for the closed-form fits)."""
+  parts: tuple
+  sds: tuple
+  trainings: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearRecipe:
+  """LS (degree 1), or each channel's powers up to `degree` (the shell paper's cubic)."""
+  degree: int = 1
+  SEEDED = False  # no random start: an ensemble's seeds would agree
+
+  def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
+    tr, va = val.split(where, seed)
+    held = linear.fit_linear(x[tr], y[tr], degree=self.degree)
+    sd = np.std(y[va] - held.predict(x[va]), axis=0)
+    return Fitted((linear.fit_linear(x, y, degree=self.degree),), (sd,), (None,))
+
+
+@dataclasses.dataclass(frozen=True)
+class PolyRecipe:
+  """The polynomial with cross terms up to `degree`, ridge weight `ridge` per sample."""
+  degree: int = 3
+  ridge: float = 0.0
+  SEEDED = False
+
+  def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
+    tr, va = val.split(where, seed)
+    held = poly_lib.fit(x[tr], y[tr], self.degree, self.ridge * len(tr))
+    sd = np.std(y[va] - held.predict(x[va]), axis=0)
+    return Fitted((poly_lib.fit(x, y, self.degree, self.ridge * len(x)),), (sd,), (None,))
+
+
+@dataclasses.dataclass(frozen=True)
+class NetworkRecipe:
+  """The network (`calibrate.parts.mlp`) on the targets (NN) or on LS's residual (LSANN),
+  from `ensemble` seeds spawned from the fit's seed; it reads the first `net_inputs` input
+  columns (None: all); `snapshots`: epoch caps to keep the best network at."""
+  config: mlp.LMConfig = mlp.LMConfig()
+  residual: bool = False
+  ensemble: int = 1
+  net_inputs: Optional[int] = None
+  snapshots: tuple = ()
+  SEEDED = True
+
+  def seeds(self, seed: int) -> list[int]:
+    if self.ensemble == 1:
+      return [seed]
+    return [int(s.generate_state(1)[0])
+            for s in np.random.SeedSequence(seed).spawn(self.ensemble)]
+
+  def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
+    """`given`: for LSANN, the LS stage fitted before (else fitted on x, y)."""
+    lin = None
+    targets = y
+    if self.residual:
+      lin = given or linear.fit_linear(x, y)
+      targets = y - lin.predict(x)
+    xn = x if self.net_inputs is None else x[:, :self.net_inputs]
+    parts, sds, runs = [], [], []
+    for member_seed in self.seeds(seed):
+      tr, va = val.split(where, member_seed)
+      res = mlp.train(xn[tr], targets[tr], xn[va], targets[va], self.config, member_seed,
+                      progress, snapshots=self.snapshots)
+      sds.append(np.std(targets[va] - res.net.predict(xn[va]), axis=0))
+      parts.append(res.net if lin is None else compose.Residual(lin, res.net))
+      runs.append(res)
+    return Fitted(tuple(parts), tuple(sds), tuple(runs))
+
+
+def predictor(fitted: Fitted):
+  """One part that predicts what the fit gives: its member, or their mean."""
+  return fitted.parts[0] if len(fitted.parts) == 1 else compose.Mean(fitted.parts)
+
+
+def subset(g: splits.Groups, idx: np.ndarray) -> splits.Groups:
+  """The groups of the samples `idx`, relabelled 0..G'-1."""
+  _, labels = np.unique(g.labels[idx], return_inverse=True)
+  return splits.Groups(labels.astype(int), g.how, g.block)
+
+
+def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validation,
+                   seed: int) -> tuple[np.ndarray, np.ndarray, dict]:
+  """Grouped K-fold cross-validation of `recipe`: (held-out residuals (N, A) of the
+  estimator as kept, per-output mask of LSANN outputs whose network lost to its LS stage
+  there, statistics). LSANN's LS stage is refitted per fold (a given one saw every sample)."""
+  parts = splits.folds(groups, folds, seed)
+  residual_of = getattr(recipe, "residual", False)
+
+  def fold(tr, va):
+    fitted = recipe.fit(x[tr], y[tr], subset(groups, tr), val, seed)
+    est = predictor(fitted)
+    out = [est.mean_spread(x[va])[0]]
+    if residual_of:
+      out.append(fitted.parts[0].base.mean_spread(x[va])[0])
+    return out
+
+  both = select.held_out(fold, y, parts, 2 if residual_of else 1)
+  residual = both[0]
+  stats = select.stats(residual, parts, groups)
+  only = np.zeros(y.shape[1], bool)
+  if residual_of:
+    rmse = np.array(stats["cv_rmse"])
+    only = select.ls_only(both[0], both[1])
+    residual[:, only] = both[1][:, only]
+    ls_rmse = np.sqrt(np.mean(both[1] ** 2, axis=0))
+    stats["cv_fold_rmse"] = select.stats(residual, parts, groups)["cv_fold_rmse"]
+    stats.update(cv_rmse_ls_stage=ls_rmse.tolist(), cv_rmse=np.where(only, ls_rmse,
+                                                                     rmse).tolist())
+  return residual, only, stats
+
+
+def choose_width(recipe: NetworkRecipe, x, y, groups, folds, val, seed, widths):
+  """(the recipe at the width of lowest held-out error, that width's cross-validation, table
+  {width: held-out error}); the error sums each output's held-out MSE over its variance."""
+  spread = np.var(y, axis=0)
+  spread = np.where(spread > 0, spread, 1.0)
+  runs, table = {}, {}
+  for w in widths:
+    cfg = dataclasses.replace(recipe.config, hidden=int(w))
+    cfg.validate()
+    cand = dataclasses.replace(recipe, config=cfg)
+    runs[str(int(w))] = (cand, cross_validate(cand, x, y, groups, folds, val, seed))
+    table[str(int(w))] = float(np.sum(np.square(runs[str(int(w))][1][2]["cv_rmse"]) / spread))
+  best = select.lowest(table)
+  return runs[best][0], runs[best][1], table
+
+
+def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
+  """(degree, ridge, table) of the polynomial with cross terms with the lowest grouped
+  cross-validated mean squared error over `parts` ((train, held-out) pairs): every degree in
+  `degrees`, ridge weights `poly.RIDGES` x the training samples. The SVD of each fold is
+  shared by its ridge weights."""
+  table = {}
+  for deg in degrees:
+    def fold(tr, va, deg=deg):
+      f = poly_lib.factor(x[tr], y[tr], deg, True, 1e-10)
+      return [f.solve(r * len(tr)).predict(x[va]) for r in poly_lib.RIDGES]
+    sse = select.fold_sums(select.held_out(fold, y, parts, len(poly_lib.RIDGES)), parts)
+    for k, r in enumerate(poly_lib.RIDGES):
+      table[(deg, r)] = float(sse[k] / len(y))
+  deg, r = select.lowest(table)
+  return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
+                           for (d, r), v in table.items()}
+
+
+class FewStatesWarning(UserWarning):
+  """Training targets with few distinct values for the network's size."""
+
+
+def warn_few_states(inputs: int, forces: np.ndarray, config: mlp.LMConfig) -> None:
+  """Warns when the targets take few distinct values (load states, told apart at 1 % of
+  each output's range) for the network's weights: it will interpolate between them."""
+  span = np.ptp(forces, axis=0)
+  states = len(np.unique(np.round(forces / np.where(span > 0, span, 1.0) * 100), axis=0))
+  weights = config.hidden * (inputs + 1) + forces.shape[1] * (config.hidden + 1)
+  if states < 2 * weights:
+    warnings.warn(f"the targets take only {states} distinct load states (told apart at 1 % of "
+                  f"each output's range) for a network of at least {weights} weights: it "
+                  f"will interpolate between them; average several networks (--ensemble "
+                  f"5), and compare LS and POLY (--method auto)", FewStatesWarning,
+                  stacklevel=4)
+
+
+def names(c: int, a: int, inputs, outputs, input_units, output_units) -> dict:
+  """The names and units `Info` keeps (default in0.., out0.., "counts", "N")."""
+  given = {}
+  for key, (value, default, n) in {
+      "inputs": (inputs, [f"in{i}" for i in range(c)], c),
+      "outputs": (outputs, [f"out{i}" for i in range(a)], a),
+      "input_units": (input_units, ["counts"] * c, c),
+      "output_units": (output_units, ["N"] * a, a)}.items():
+    value = list(default if value is None else value)
+    if len(value) != n:
+      raise errors.SettingError(f"{key}: {len(value)} names for {n} columns")
+    given[key] = tuple(str(v) for v in value)
+  return given
+
+
+def integer_inputs(counts: np.ndarray) -> bool:
+  """ADC counts or not: the C export takes uint16_t counts only if they were."""
+  return bool(np.all((counts >= 0) & (counts <= 65535) & (counts == np.round(counts))))
+
+
+def infos(fitted: Fitted, x, y, settings: dict, named: dict, extra: dict) -> list[Info]:
+  """Each member's `Info`: the training ranges and data digest, its validation spread, the
+  cross-validation's interval fields `extra`."""
+  base = dict(input_lo=x.min(axis=0), input_hi=x.max(axis=0), output_lo=y.min(axis=0),
+              output_hi=y.max(axis=0), samples=len(x), data_sha256=data_digest(x, y),
+              settings=settings, **named)
+  return [Info(residual_sd=sd, **base, **extra) for sd in fitted.sds]
+
+
+def interval_fields(residual, only, stats, groups, outputs) -> dict:
+  """`Info`'s interval and validation fields from a cross-validation."""
+  return held_out(residual, groups, {**stats, "ls_only": [outputs[j]
+                                                          for j in np.flatnonzero(only)]})
+
+
+def check(kind, counts, forces, *, seed, ensemble, net_inputs, degree, groups, folds):
+  """The fit's data and options, checked; raises SettingError naming the one out of range."""
+  if kind is Kind.AUTO:
+    raise errors.SettingError("method AUTO chooses among the others on held-out groups: call "
+                              "fit_auto(counts, forces, groups, folds)")
+  if kind is Kind.GRU:
+    raise errors.SettingError("method GRU reads recordings in time order: call fit_temporal("
+                              "'GRU', counts, forces, dt, segments=...)")
+  counts, forces = linear.check_pair(counts, forces)
+  if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
+    raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
+  if ensemble > 1 and not RECIPES[kind.value].SEEDED:
+    raise errors.SettingError(f"ensemble={ensemble}: {kind.value} has no random start, so its "
+                              f"seeds would agree; an ensemble is for LSANN and NN")
+  if net_inputs is not None and not (isinstance(net_inputs, (int, np.integer))
+                                     and 1 <= net_inputs <= counts.shape[1]):
+    raise errors.SettingError(f"net_inputs={net_inputs!r} is out of range: allowed integers "
+                              f"1..{counts.shape[1]} (the input columns)")
+  if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2 ** 63):
+    raise errors.SettingError(f"seed={seed!r} is out of range: allowed integers >= 0")
+  if kind is Kind.POLY and not (isinstance(degree, (int, np.integer)) and 1 <= degree <= 5):
+    raise errors.SettingError(f"degree={degree!r} is out of range: allowed integers 1..5")
+  if folds and groups is None:
+    raise errors.SettingError("folds need groups (calibrate.splits.groups): cross-validation "
+                              "over single samples would flatter every method")
+  if groups is not None and len(groups.labels) != len(counts):
+    raise errors.SettingError(f"groups: {len(groups.labels)} labels for {len(counts)} samples")
+  return counts, forces
+
+
+# each method's recipe, built from the fit's options
+RECIPES = {
+    "LS": LinearRecipe,
+    "POLY": LinearRecipe,  # with cross=True: PolyRecipe
+    "LSANN": NetworkRecipe,
+    "NN": NetworkRecipe,
+}
+
+
+def recipe(kind: str, options: dict, settings: dict, x, y, parts):
+  """The recipe of `kind` with the fit's `options`, its choices recorded in `settings`; a
+  POLY with cross terms and no ridge given chooses degree and ridge on the folds `parts`."""
+  if kind == "POLY" and options["cross"]:
+    ridge, degree = options["ridge"], options["degree"]
+    if ridge is None and parts:
+      degree, lam, table = choose_poly(x, y, parts, tuple(range(1, degree + 1)))
+      ridge = lam / len(x)
+      settings["poly_cv_mse"] = table
+    ridge = 0.0 if ridge is None else float(ridge)
+    settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
+    return PolyRecipe(degree, ridge)
+  if kind in ("LS", "POLY"):
+    degree = options["degree"] if kind == "POLY" else 1
+    if kind == "POLY":
+      settings["degree"] = degree
+    return LinearRecipe(degree)
+  settings.update(config=dataclasses.asdict(options["config"]), ensemble=options["ensemble"])
+  return NetworkRecipe(options["config"], kind == "LSANN", options["ensemble"],
+                       options["net_inputs"], tuple(options["snapshots"]))
+
+
+def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fraction=0.15,
+        seed=0, progress=None, degree=3, snapshots=(), val_block=None, ensemble=1, inputs=None,
+        outputs=None, input_units=None, output_units=None, groups=None, folds=0, cross=False,
+        ridge=None, widths=(), net_inputs=None):
+  """`calibrate.estimators.fit` (its docstring says what each option does)."""
+  counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
+                         net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
+  named = names(counts.shape[1], forces.shape[1], inputs, outputs, input_units, output_units)
+  settings = {"method": kind.value, "val_fraction": val_fraction, "seed": seed,
+              "val_block": None if groups is not None else val_block,
+              "integer_inputs": integer_inputs(counts)}
+  if groups is not None:
+    settings.update(split=groups.how, groups=groups.count, block=groups.block)
+  parts = splits.folds(groups, folds, seed) if folds else []
+  how = recipe(kind.value, dict(cross=cross, ridge=ridge, degree=degree, config=config,
+                                ensemble=ensemble, net_inputs=net_inputs, snapshots=snapshots),
+               settings, counts, forces, parts)
+  val = Validation(val_fraction, val_block)
+  cv = None
+  if isinstance(how, NetworkRecipe):
+    warn_few_states(counts.shape[1], forces, how.config)
+    if widths and folds:
+      how, cv, table = choose_width(how, counts, forces, groups, folds, val, seed, widths)
+      settings.update(config=dataclasses.asdict(how.config), width_cv=table)
+  where = groups if groups is not None else len(counts)
+  fitted = how.fit(counts, forces, where, val, seed, linear_fit, progress)
+  extra = {}
+  if folds:
+    residual, only, stats = cv or cross_validate(how, counts, forces, groups, folds, val, seed)
+    if only.any():
+      fitted = dataclasses.replace(fitted, parts=tuple(
+          compose.Residual(p.base, p.residual.without_outputs(only)) for p in fitted.parts))
+    extra = interval_fields(residual, only, stats, groups, named["outputs"])
+  out = [Estimator(kind, p, i, training=t) for p, i, t in
+         zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
+             fitted.trainings)]
+  return out[0] if len(out) == 1 else combine(out)
+
+
+def combine(members):
+  """Fitted estimators of one kind (networks from several seeds) as one ensemble: it predicts
+  their mean, and its residual spread is the root mean square of theirs. Each member needs
+  its `info` (every `fit` gives one)."""
+  members = tuple(members)
+  first = members[0].info
+  spread = np.sqrt(np.mean([m.info.residual_sd ** 2 for m in members], axis=0))
+  info = dataclasses.replace(first, residual_sd=spread,
+                             settings={**first.settings, "ensemble": len(members)})
+  return Estimator(members[0].kind, compose.Mean(tuple(m.root for m in members)), info,
+                   trainings=tuple(m.training for m in members))
+
+
+def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **kwargs):
+  """`calibrate.estimators.fit_auto` (its docstring says what it returns)."""
+  import time
+  if groups is None or folds < 2:
+    raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
+                              "folds >= 2")
+  fitted, table = [], {}
+  for kind in (CANDIDATES if candidates is None else candidates):
+    kind = Kind(kind)
+    t0 = time.perf_counter()
+    seeded = {} if RECIPES[kind.value].SEEDED else {"ensemble": 1}  # LS, POLY: no seeds
+    est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
+              progress=progress, **{**kwargs, **seeded})
+    table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
+                         "seconds": time.perf_counter() - t0, "estimator": est}
+    fitted.append(est)
+  best = select.one_standard_error(
+      np.array([e.info.validation["cv_rmse"] for e in fitted]),
+      np.array([e.info.validation["cv_fold_rmse"] for e in fitted]),
+      np.abs(np.asarray(forces, float)).max(axis=0))
+  # LS stays a part even where no output keeps it: its plane continues the networks beyond
+  # the training box (`compose.PerOutput`)
+  ls = [k for k, e in enumerate(fitted) if e.kind is Kind.LS]
+  used = sorted(set(best.tolist()) | set(ls))
+  pick = tuple(used.index(k) for k in best)
+  info = _auto_info([fitted[k] for k in best], fitted[used[0]].info, table)
+  root = compose.PerOutput(tuple(fitted[k].root for k in used), pick, info.input_lo,
+                           info.input_hi)
+  return Estimator(Kind.AUTO, root, info), table
+
+
+def _auto_info(chosen, first: Info, table: dict) -> Info:
+  """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate."""
+  infos = [e.info for e in chosen]
+  cols = range(len(chosen))
+  return dataclasses.replace(
+      first, residual_sd=np.array([i.residual_sd[j] for j, i in zip(cols, infos)]),
+      interval_abs=np.column_stack([i.interval_abs[:, j] for j, i in zip(cols, infos)]),
+      interval_offsets=None if infos[0].interval_offsets is None else np.column_stack(
+          [i.interval_offsets[:, j] for j, i in zip(cols, infos)]),
+      settings={"method": "AUTO", "candidates": list(table),
+                "seed": first.settings.get("seed"),
+                "integer_inputs": first.settings.get("integer_inputs")},
+      validation={**{k: v for k, v in first.validation.items()
+                     if k in ("split", "groups", "block", "folds")},
+                  "cv_rmse": [i.validation["cv_rmse"][j] for j, i in zip(cols, infos)],
+                  "chosen": [e.kind.value for e in chosen],
+                  "candidates": {k: v["cv_rmse"] for k, v in table.items()},
+                  "ls_only": [n for j, n in enumerate(first.outputs)
+                              if n in infos[j].validation.get("ls_only", [])]})

@@ -1,0 +1,205 @@
+"""Fits behind a temporal front end: `Chain(Memory, stage)`.
+
+The front end (`calibrate.parts.memory.Memory`) is built first: its drift tare's detector
+and no-load reference from the counts, then its time constants chosen greedily by grouped
+cross-validation of LS over whole segments (`calibrate.select`). The stages (`methods.fit`,
+or LS plus a recurrent network for GRU) are fitted on its features of the selected samples,
+and `Info` describes the raw counts the chain reads.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibrate import compose, methods, select, splits
+from calibrate.fitted import Estimator, Kind
+from calibrate.info import data_digest, held_out
+
+from calibrate.parts import gru as recurrent
+from calibrate.parts import linear
+from calibrate.parts import memory as temporal
+from calibrate.parts.base import Stream
+from util import errors
+
+# time constants the history features choose from, s: from the footpad's fast relaxation
+# (Prony tau1 0.1-2 s) to its slow one and the dies' drift (tens of seconds to minutes)
+TAU_CANDIDATES = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
+
+
+def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contact=None,
+                 sessions=None, taus=None, candidates=TAU_CANDIDATES, max_taus=3,
+                 differences=True, tare=None, folds=5, seed=0, inputs=None, memory=None,
+                 network_history=False, gru=recurrent.GRUConfig(), **kwargs):
+  """`calibrate.estimators.fit_temporal` (its docstring says what each option does)."""
+  counts, forces = linear.check_pair(counts, forces)
+  n, c = counts.shape
+  segments = np.zeros(n, int) if segments is None else np.asarray(segments)
+  select = np.ones(n, bool) if select is None else np.asarray(select, bool)
+  if segments.shape != (n,) or select.shape != (n,):
+    raise errors.DataError(f"segments and select need one value per sample ({n})")
+  names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
+  stream = (contact, sessions)
+  if memory is not None:
+    if memory.channels != c:
+      raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
+                             f"have {c}")
+  else:
+    base = front_end(counts, forces, dt, segments, select, stream, tare, differences)
+    if taus is None:
+      taus, differences = choose_taus(base, counts, forces, segments, select, stream,
+                                      tuple(candidates), max_taus, folds, seed)
+    memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
+                                 differences=differences)
+    memory.validate()
+  return fit_behind(memory, kind, counts, forces, segments, select, stream, names, seed,
+                    network_history, folds, kwargs, gru)
+
+
+def front_end(counts, forces, dt, segments, select, stream, tare, differences):
+  """The front end without time constants: the tare's detector (LS on the selected samples,
+  unless a contact flag says where the sensor is unloaded) and no-load reference."""
+  c = counts.shape[1]
+  contact, sessions = stream
+  detector = reference = None
+  if tare is not None:
+    tare.validate()
+    if contact is None and not 0 <= tare.axis < forces.shape[1]:
+      raise errors.SettingError(f"the tare reads the normal force as target {tare.axis + 1} "
+                                f"of the LS map, and there are {forces.shape[1]} targets: "
+                                f"give the normal force as the third, or a contact flag")
+    if contact is None:
+      detector = linear.fit_linear(counts[select], forces[select])
+      probe = temporal.Memory(c, dt, tare=tare, detector=detector, reference=np.zeros(c))
+      # with no offset yet, the first unloaded interval of each recording marks samples free
+      free = probe.offsets(counts, segments, sessions=sessions)[1]
+    else:
+      free = ~np.asarray(contact, bool)
+    reference = temporal.reference_counts(counts, free)
+  base = temporal.Memory(c, dt, (), differences, tare, detector, reference)
+  base.validate()
+  return base
+
+
+def choose_taus(base, counts, forces, segments, chosen, stream, candidates, max_taus, folds,
+                seed) -> tuple[tuple[float, ...], bool]:
+  """The time constants, greedily, that lower LS's error on held-out segments, and whether
+  the first differences do (when `base.differences` allows them)."""
+  labels = segments[chosen]
+  if folds < 2:
+    raise errors.SettingError(f"choosing the time constants holds out recordings: folds="
+                              f"{folds} is out of range, give 2 or more (or the time "
+                              f"constants themselves)")
+  if len(np.unique(labels)) < 2:
+    raise errors.SettingError("choosing the time constants holds out whole recordings: give "
+                              "two segments or more, or the time constants themselves")
+  groups = splits.groups(int(chosen.sum()), "recordings", labels)
+  parts = splits.folds(groups, min(folds, groups.count), seed)
+  every = dataclasses.replace(base, taus=candidates)  # differences last, if allowed
+  feats = every.features(counts, segments, *stream)[chosen]
+  y = forces[chosen]
+  spread = np.maximum(y.std(axis=0), 1e-12)
+  ch = base.channels
+  column = {None: list(range(ch))}
+  for i, tau in enumerate(candidates):
+    column[tau] = list(range(ch * (1 + i), ch * (2 + i)))
+  column["d"] = list(range(ch * (1 + len(candidates)), ch * (2 + len(candidates))))
+
+  def score(keys) -> float:
+    cols = sum((column[k] for k in [None] + keys), [])
+
+    def fold(tr, va):
+      return [linear.fit_linear(feats[tr][:, cols], y[tr]).predict(feats[va][:, cols])]
+    err = select.fold_sums(select.held_out(fold, y, parts), parts, spread)[0]
+    return float(np.sqrt(err / len(y)))
+
+  def room(kept, t) -> bool:
+    return t == "d" or sum(k != "d" for k in kept) < max_taus
+
+  kept = select.greedy(score, list(candidates) + (["d"] if base.differences else []), room)
+  return tuple(sorted(k for k in kept if k != "d")), "d" in kept
+
+
+def fit_behind(memory, kind, counts, forces, segments, chosen, stream, names, seed,
+               network_history, folds, kwargs, gru=recurrent.GRUConfig()):
+  """The stages of `kind` fitted on `memory`'s features of the selected samples
+  (cross-validated over `folds` of the `groups` in kwargs, when there are any), behind it."""
+  kind = Kind(kind)
+  c = counts.shape[1]
+  units = tuple(kwargs.pop("input_units", None) or ("counts",) * c)
+  feats = memory.features(counts, segments, *stream)
+  if kind is Kind.GRU:
+    est = fit_gru(feats, forces, segments, chosen, memory.names(names), seed, folds, gru,
+                  c, kwargs)
+  else:
+    est = methods.fit(kind, feats[chosen], forces[chosen], seed=seed,
+                      inputs=memory.names(names), net_inputs=None if network_history else c,
+                      folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
+  raw = counts[chosen]
+  info = dataclasses.replace(
+      est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
+      input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[chosen]),
+      settings={**est.info.settings, "memory": memory.settings(),
+                "integer_inputs": methods.integer_inputs(raw)})
+  return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info)
+
+
+@dataclasses.dataclass(frozen=True)
+class GRURecipe:
+  """LS on the features x (N, width) of the chosen samples (or `given`), the recurrent
+  network (reading the first `c` features, the tared counts) on its residual over the
+  recordings that hold chosen samples."""
+  config: recurrent.GRUConfig
+  c: int
+  seed: int
+
+  def fit(self, x, forces, segments, rows, progress=None, given=None):
+    lin = given or linear.fit_linear(x[rows], forces[rows])
+    have = [(lo, hi) for lo, hi in temporal._runs(segments, len(x)) if rows[lo:hi].any()]
+    net, res = recurrent.train(x[:, :self.c], forces - lin.predict(x), have, rows,
+                               self.config, self.seed, progress)
+    return compose.Residual(lin, net), res
+
+
+def fit_gru(x, forces, segments, chosen, names, seed, folds, config, c, kwargs):
+  """GRU on the features x of whole recordings; with `groups` in kwargs and `folds`, the
+  whole fit cross-validated over them (the held-out samples' targets never reach the loss;
+  their inputs pass through the state, as at use). `Info` (in feature space) as `fit` gives
+  it, the residual spread from the network's held-out recordings."""
+  if kwargs.pop("ensemble", 1) != 1:
+    raise errors.SettingError("an ensemble of recurrent networks is not built: ensemble=1 "
+                              "with method GRU")
+  progress, groups = kwargs.pop("progress", None), kwargs.pop("groups", None)
+  given = kwargs.pop("linear_fit", None)
+  for unread in ("config", "widths", "degree", "cross", "ridge", "snapshots", "val_block",
+                 "net_inputs"):
+    kwargs.pop(unread, None)
+  config.validate()
+  how = GRURecipe(config, c, seed)
+  root, res = how.fit(x, forces, segments, chosen, progress, given)
+  ls = methods.fit(Kind.LS, x[chosen], forces[chosen], seed=seed, inputs=names, **kwargs)
+  held = np.zeros(len(x), bool)
+  for lo, hi in res.held_out:
+    held[lo:hi] = True
+  held &= chosen
+  pred = root.mean_spread(x, Stream(segments))[0]
+  settings = {**ls.info.settings, "method": Kind.GRU.value, "seed": seed,
+              "gru": dataclasses.asdict(config)}
+  info = dataclasses.replace(ls.info, residual_sd=np.std(forces[held] - pred[held], axis=0),
+                             settings=settings)
+  if folds and groups is not None and groups.count >= 2:
+    rows_of = np.flatnonzero(chosen)
+    parts = splits.folds(groups, folds, seed)
+
+    def fold(tr, va):
+      rows = np.zeros(len(x), bool)
+      rows[rows_of[tr]] = True
+      return [how.fit(x, forces, segments, rows)[0].mean_spread(x, Stream(segments))[0]
+              [rows_of[va]]]
+    residual = select.held_out(fold, forces[rows_of], parts)[0]
+    stats = {**select.stats(residual, parts, groups), "ls_only": []}
+    info = dataclasses.replace(info, **held_out(residual, groups, stats))
+    info = dataclasses.replace(info, settings={**info.settings, "split": groups.how,
+                                               "groups": groups.count})
+  return Estimator(Kind.GRU, root, info, training=res)
