@@ -5,7 +5,7 @@
 * LSANN: LS, then the network fitted to the residual F - F_LS from the six counts (paper
   Sec. III-C: "the input is the array of voltage signals"; Eqn 8 sums the two).
 * NN: the same network fitted to F from the six counts.
-* GRU: LS, then a small recurrent network (`calibrate.recurrent`) fitted to the residual from
+* GRU: LS, then a small recurrent network (`calibrate.parts.gru`) fitted to the residual from
   the counts' past: a temporal estimator, fitted by `fit_temporal` on whole recordings.
 """
 
@@ -61,7 +61,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     groups: the samples' groups (`calibrate.splits`): validation then holds out whole groups
       (recordings or time blocks), never single samples between training ones.
     cross: POLY as a total-degree polynomial with cross terms, ridge-regularised and
-      continued linearly beyond its training box (`calibrate.poly`); False: the shell
+      continued linearly beyond its training box (`calibrate.parts.poly`); False: the shell
       paper's powers of each channel alone (`linear.fit_linear`).
     ridge: with `cross`, the ridge weight per training sample; None: chosen with the degree
       (1..`degree`) by grouped cross-validation over `folds` when given, else 0.
@@ -105,11 +105,11 @@ def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, 
                  folds: int = 5, seed: int = 0, inputs: Optional[Sequence[str]] = None,
                  memory: Optional[temporal.Memory] = None, network_history: bool = False,
                  gru: recurrent.GRUConfig = recurrent.GRUConfig(), **kwargs) -> Estimator:
-  """Fits an estimator of `kind` behind a temporal front end (`calibrate.temporal.Memory`).
+  """Fits an estimator of `kind` behind a temporal front end (`calibrate.parts.memory.Memory`).
 
   Args:
     kind: the stages (LS, POLY, LSANN, NN, GRU) fitted on the front end's features. GRU is
-      LS on the features plus a recurrent network (`calibrate.recurrent`) that reads the
+      LS on the features plus a recurrent network (`calibrate.parts.gru`) that reads the
       tared counts in time and is fitted to LS's residual on the selected samples.
     counts, forces: (N, C) counts and (N, A) forces of whole recordings in time order: the
       filters and tares run over every sample, the fit takes `select`.

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from calibrate import splits, __main__ as cli
+from calibrate.cli import evaluate as evaluate_cli
 from calibrate import cexport, csvfile, estimators, metrics
 from calibrate.parts import mlp
 from calibrate.sklearn_api import ForceCalibrator
@@ -191,7 +192,7 @@ def test_csv_round_trip_gives_the_python_paths_metrics(footpad_csv, tmp_path, me
     groups = splits.groups(len(train.counts), "auto", None, train.counts)
     est = estimators.fit(method.upper(), train.counts, train.wrench[:, :3], config=cfg,
                          groups=groups, folds=5)
-    want = cli.scores(est.predict(test.counts), test.wrench[:, :3], ("Fx", "Fy", "Fz"),
+    want = evaluate_cli.scores(est.predict(test.counts), test.wrench[:, :3], ("Fx", "Fy", "Fz"),
                       ("N",) * 3)
   for ax in ("Fx", "Fy", "Fz"):
     for key in ("rmse", "nrmse_pct", "r2_pct", "median_pct", "worst_pct"):
@@ -328,7 +329,13 @@ def test_the_budgets_instruction_counts_match_an_arm_run(tmp_path):
 
 
 @pytest.mark.parametrize("args, says", [
-    (["--method", "ls", "--ensemble", "3"], "an ensemble is for LSANN and NN"),
+    (["--method", "ls", "--ensemble", "3"], "--ensemble is not an option of --method ls"),
+    # each method reads the options of the families it is built from (calibrate.parts)
+    (["--method", "poly", "--epochs", "5"], "--epochs is not an option of --method poly: it "
+                                            "reads --degree, --per-channel"),
+    (["--method", "lsann", "--degree", "2"], "--degree is not an option of --method lsann"),
+    (["--method", "gru", "--weight-decay", "0.1"], "--weight-decay is not an option of "
+                                                   "--method gru"),
     (["--method", "ls", "--seed", "-1"], "seed=-1 is out of range"),
     (["--method", "nn", "--hidden", "0"], "hidden=0 is out of range"),
     (["--method", "poly", "--degree", "0"], "degree=0 is out of range"),
@@ -347,7 +354,8 @@ def test_a_bug_in_the_command_says_so_and_saves_its_traceback(tmp_path, capsys, 
   import calibrate
   import pathlib
   monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
-  monkeypatch.setattr(cli, "fit", lambda args: 1 / 0)
+  from calibrate.cli import fit
+  monkeypatch.setattr(fit, "run", lambda args: 1 / 0)
   train = pathlib.Path(calibrate.__file__).parent / "examples" / "train.csv"
   code = cli.main(["fit", "--csv", str(train), "--inputs", "p*", "--targets", "Fx",
                    "--method", "ls"])

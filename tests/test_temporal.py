@@ -1,4 +1,4 @@
-"""Calibrators that remember (`calibrate.temporal`), against systems with known answers: a
+"""Calibrators that remember (`calibrate.parts.memory`), against systems with known answers: a
 Prony relaxation whose inverse is exactly linear in a filter, a drift that taring removes."""
 
 import numpy as np

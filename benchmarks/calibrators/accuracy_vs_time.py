@@ -5,7 +5,7 @@ pseudoinverse of degrees 1-4 (the shell paper's is 3); LSANN and NN-only (LM-tra
 networks) with each hidden size, each epoch cap and both damping rules (MATLAB trainlm's and
 Nielsen's). A point is (training seconds after JIT compilation, test error, prediction cost
 per sample). One training run per network keeps its best validation net at every cap
-(`calibrate.mlp.train(snapshots=...)`), which is what a run capped there would return; its
+(`calibrate.parts.mlp.train(snapshots=...)`), which is what a run capped there would return; its
 time is the run's time at that epoch.
 
 On the footpad also the calibrators that remember (`temporal_calibrators`): LS, LSANN (each

@@ -2,13 +2,13 @@
 
 The paper's protocol (LS on the Z presses and X/Y strokes; LSANN's network and NN-only on the
 Asterisk path; tested on Testing Paths 1 and 2) with every calibrator twice: static, as in
-the paper, and behind a temporal front end (`calibrate.temporal`): drift tracking (each die
+the paper, and behind a temporal front end (`calibrate.parts.memory`): drift tracking (each die
 re-zeroed in the unloaded intervals that start and end every stroke, read from the LS map's
 normal force: `tare_rule`) and history features (each die's high-pass at time constants
 chosen on held-out episodes of the strokes, and its first difference, each kept only where
 it lowers LS's held-out error). The history features reach the LS stage; the networks read
 the tared counts (`estimators.fit_temporal`'s network_history says why). GRU+memory is the
-same LS stage plus a recurrent network (`calibrate.recurrent`) fitted on the Asterisk
+same LS stage plus a recurrent network (`calibrate.parts.gru`) fitted on the Asterisk
 episodes to its residual, stopped on held-out blocks of them. The filters and the GRU run
 over each whole episode, approach included, and are scored on the samples on the path, as
 the static fits.

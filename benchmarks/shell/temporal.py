@@ -5,7 +5,7 @@ The shell's two effects that carry the past are opt-in (`sim.shell.effects`): `s
 offset wandering over seconds on every photointerrupter, and `spring_hysteresis`, Coulomb
 friction in the mount. This benchmark turns both on over the run's board and fits, on the
 calibration run (100 Hz frames, each thread's session a segment), the paper's cubic (POLY)
-and LS, static and behind the temporal front end of `calibrate.temporal` (history features:
+and LS, static and behind the temporal front end of `calibrate.parts.memory` (history features:
 each sensor's high-pass at time constants chosen on held-out sessions, and its first
 difference), and GRU+memory (the cubic behind the same front end plus a recurrent network on
 its residual). No drift

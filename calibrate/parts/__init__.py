@@ -2,7 +2,9 @@
 its arrays for the file and its C (`calibrate.parts.base.Part`).
 
 `FAMILIES` names them for the file format and the command line; a module is imported only
-when its family is used (`--help` stays free of JAX).
+when its family is used (`--help` stays free of JAX). `OPTIONS` says which of the command
+line's model options each family reads (and which of its settings it sets), `METHODS` which
+families each method is built from: `fit --method poly --epochs 5` is refused by name.
 """
 
 from __future__ import annotations
@@ -23,3 +25,32 @@ def family(name: str) -> type:
   """The fitted type of the family `name`; KeyError for a name no family has."""
   module, cls = FAMILIES[name]
   return getattr(importlib.import_module(module), cls)
+
+
+# command-line option -> the family's setting it sets (None: read by the fit, not a setting)
+OPTIONS = {
+    "linear": {},
+    "poly": {"--degree": "degree", "--per-channel": None},
+    "mlp": {"--hidden": "hidden", "--epochs": "epochs", "--weight-decay": "weight_decay",
+            "--ensemble": None},
+    "gru": {"--hidden": "hidden", "--epochs": "steps"},
+    "memory": {},
+}
+
+# each method of `python -m calibrate fit --method` and the families it is built from
+METHODS = {
+    "ls": ("linear",),
+    "poly": ("poly", "linear"),
+    "lsann": ("linear", "mlp"),
+    "nn": ("mlp",),
+    "gru": ("linear", "gru"),
+    "auto": ("linear", "poly", "mlp"),
+}
+
+
+def options(method: str) -> dict:
+  """{option: setting} of every family `method` is built from."""
+  out = {}
+  for name in METHODS[method]:
+    out.update(OPTIONS[name])
+  return out

@@ -243,7 +243,7 @@ class Memory:
 
   def emit_front(self, em, raw: str) -> list[str]:
     """C lines that turn this sample's inputs raw[] into the front end's features x[]
-    (`calibrate.temporal.Memory.features`, streamed): the tare's state machine, then each
+    (`calibrate.parts.memory.Memory.features`, streamed): the tare's state machine, then each
     channel's high-pass at every time constant and its first difference. The state lives
     in static variables that `estimate_reset` sets to a recording's start."""
     c, t = self.channels, len(self.taus)

@@ -1,0 +1,331 @@
+"""What the commands share: the training options and data, the preparation record, the
+method's options checked against the families it is built from."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from calibrate import csvfile, parts, prepare, splits as splits_lib
+from util import cli, errors
+
+METHODS = tuple(parts.METHODS)
+# median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
+THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
+# the model options' defaults, filled in after `check_options` has seen what was given
+DEFAULTS = {"hidden": 10, "weight_decay": 0.0, "degree": 3, "ensemble": 1}
+
+
+def check_options(args, method: str) -> None:
+  """Refuses a model option that `method` does not read (its families declare the ones
+  they do: `calibrate.parts.OPTIONS`), then fills the defaults of the ones not given."""
+  allowed = parts.options(method)
+  for flag in sorted({f for o in parts.OPTIONS.values() for f in o}):
+    value = getattr(args, flag[2:].replace("-", "_"), None)
+    if value not in (None, False) and flag not in allowed:
+      reads = ", ".join(sorted(allowed)) or "none of the model options"
+      raise errors.SettingError(f"{flag} is not an option of --method {method}: it reads "
+                                f"{reads}")
+  for key, value in DEFAULTS.items():
+    if getattr(args, key, None) is None:
+      setattr(args, key, value)
+
+
+def cleaning_args(p: argparse.ArgumentParser) -> None:
+  """What every command that reads recordings may drop, counted: empty cells, repeated
+  times."""
+  p.add_argument("--drop-nan", action="store_true",
+                 help="drop rows with an empty cell or NaN (counted) instead of refusing the "
+                      "file")
+  p.add_argument("--dedupe", choices=csvfile.DEDUPE, default=None,
+                 help="rows repeating the previous row's time: 'mean' averages them, 'first' "
+                      "keeps the first (counted); default: refuse the file")
+
+
+def recording_args(p: argparse.ArgumentParser) -> None:
+  """The options of the commands that apply an estimator to a recording."""
+  p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
+  p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  cleaning_args(p)
+  rails_args(p)
+
+
+def rails_args(p: argparse.ArgumentParser) -> None:
+  p.add_argument("--rails", type=rails, default=None, metavar="LO,HI",
+                 help="the ADC's rails in the inputs' units (e.g. 0,4095); default: a "
+                      f"recording's min or max held {prepare.RAIL_HOLD} samples in a row; "
+                      "samples there are reported per channel")
+  p.add_argument("--drop-rails", action="store_true",
+                 help="drop rows with an input at a rail (counted)")
+
+
+def rails(text: str) -> tuple[float, float]:
+  try:
+    lo, hi = (float(v) for v in text.split(","))
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r}: give two numbers, LO,HI") from None
+  return lo, hi
+
+
+def training_args(p: argparse.ArgumentParser) -> None:
+  """The options `fit` and `compare` share: the recordings, the columns, the split."""
+  p.add_argument("--csv", required=True, type=cli.path_arg, nargs="+",
+                 help="training recordings: one or more files or globs ('runs/*.csv'); each "
+                      "file is a recording, held out whole by the default split")
+  p.add_argument("--inputs", required=True,
+                 help="sensor columns, comma-separated names or globs (e.g. 'p*')")
+  p.add_argument("--targets", required=True, help="F/T columns, e.g. Fx,Fy,Fz")
+  p.add_argument("--group", default=None,
+                 help="a column whose value tells recordings apart within a file (e.g. a "
+                      "trial number); with several files, groups are per file and value")
+  p.add_argument("--split", default="auto", choices=splits_lib.HOW,
+                 help="what validation holds out: auto (whole recordings where there are "
+                      "several, else contiguous blocks as long as the inputs' "
+                      "autocorrelation), recordings, blocks, or samples (single samples at "
+                      "random, the LSANN paper's: flatters every method)")
+  p.add_argument("--folds", type=int, default=5,
+                 help="grouped cross-validation folds for the held-out error and the "
+                      "interval (default 5; 0: none, and no interval)")
+  p.add_argument("--level", type=float, default=0.95,
+                 help="interval level to report (default 0.95; predict --interval takes any)")
+  p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
+  p.add_argument("--hidden", type=hidden, default=None,
+                 help="hidden units (default 10, the paper's), or 'auto': the width of "
+                      f"{', '.join(map(str, WIDTHS))} with the lowest held-out error")
+  p.add_argument("--weight-decay", type=float, default=None,
+                 help="networks: the penalty lambda |w|^2 on the (scaled) weights, for data "
+                      "with few distinct load states (default 0, trainlm's)")
+  p.add_argument("--epochs", type=int, default=None,
+                 help="epoch cap (default 1000, trainlm's); gru: the cap on Adam steps "
+                      "(default 3000)")
+  p.add_argument("--degree", type=int, default=None,
+                 help="poly: the highest degree (default 3); with cross-validation the degree "
+                      "1..this and the ridge weight are chosen on held-out groups")
+  p.add_argument("--val-fraction", type=float, default=0.15,
+                 help="share held out for early stopping and the residual spread (0.15)")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  p.add_argument("--no-progress", action="store_true", help="no progress bar")
+  cleaning_args(p)
+  rails_args(p)
+  p.add_argument("--tare", type=float, default=None, metavar="SECONDS",
+                 help="the first SECONDS of each recording are unloaded: each input and "
+                      "target less its median there; the estimator keeps the rule for "
+                      "predict, evaluate and the C export")
+  p.add_argument("--tare-column", default=None, metavar="FLAG",
+                 help="as --tare, the unloaded rows being those where the column FLAG is 0 "
+                      "(a contact flag)")
+  p.add_argument("--history", type=history, default=None, metavar="auto|SECONDS,...",
+                 help="give the estimator the recording's past (`calibrate.parts.memory`): each "
+                      "input's high-pass at these time constants and its first difference "
+                      "('auto': chosen on held-out recordings); needs the time column")
+  p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
+                 help="re-zero each input during unloaded intervals, those where the LS map's "
+                      "third target (the normal force) reads under NEWTONS for 21 samples; "
+                      "needs the time column")
+  p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
+                 help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
+                      "the range, which are reported either way): +-2**BITS times the "
+                      "channel's smallest step")
+  p.add_argument("--ensemble", type=int, default=None,
+                 help="LSANN and NN (also within auto): the mean of networks from this "
+                      "many seeds, which predict --std spreads; at few load states 5 "
+                      "interpolate better than one (default 1)")
+
+
+WIDTHS = (5, 10, 20, 40, 64)  # --hidden auto's candidates
+
+
+def history(text: str):
+  """--history: 'auto' or time constants in seconds, comma-separated."""
+  if text.strip().lower() == "auto":
+    return "auto"
+  try:
+    taus = tuple(float(t) for t in text.split(",") if t.strip())
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not 'auto' or seconds, e.g. 0.1,1") from None
+  if not taus or not all(np.isfinite(t) and t > 0 for t in taus):
+    raise argparse.ArgumentTypeError(f"{text!r}: time constants are seconds > 0")
+  return taus
+
+
+def hidden(text: str):
+  """--hidden: a positive integer or 'auto'."""
+  if text.strip().lower() == "auto":
+    return "auto"
+  try:
+    return int(text)
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not a number of units or 'auto'") from None
+
+
+def net_config(args):
+  """(network settings, widths to choose from) of the options."""
+  from calibrate.parts import mlp
+  auto = args.hidden == "auto"
+  config = mlp.LMConfig(hidden=10 if auto else args.hidden,
+                        epochs=1000 if args.epochs is None else args.epochs,
+                        weight_decay=args.weight_decay)
+  config.validate()
+  return config, WIDTHS if auto else ()
+
+
+def gru_config(args):
+  """The recurrent network's settings of the options (--hidden, --epochs as its steps)."""
+  from calibrate.parts import gru
+  if args.method != "gru":
+    return gru.GRUConfig()
+  if args.hidden == "auto":
+    raise errors.SettingError("--hidden auto chooses the width of lsann and nn: give gru a "
+                              "number of hidden units (--hidden 8)")
+  config = gru.GRUConfig(hidden=args.hidden, **(
+      {} if args.epochs is None else {"steps": args.epochs}))
+  config.validate()
+  return config
+
+
+def method_arg(text: str) -> str:
+  """--method's value; a typo is answered with the closest method."""
+  if text.lower() in METHODS:
+    return text.lower()
+  raise argparse.ArgumentTypeError(str(errors.unknown("method", text, METHODS)))
+
+
+def names_list(text: str) -> list[str]:
+  return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def preparation(args):
+  """The preparation steps `fit` and `compare` were asked for."""
+  tare = None
+  if args.tare is not None or args.tare_column is not None:
+    if args.tare is not None and args.tare_column is not None:
+      raise errors.SettingError("--tare and --tare-column: give one of them")
+    tare = prepare.Tare(args.tare, args.tare_column, args.time_column)
+  return prepare.Steps(args.unwrap, args.rails, args.drop_rails, tare)
+
+
+def training_data(args):
+  """(table, x, y, groups, names) of `fit` and `compare`, every option checked first."""
+  if not 0 <= args.folds <= 20:
+    raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
+  if not 0.5 <= args.level <= 0.999:
+    raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
+  steps = preparation(args)
+  tables, table, recording = csvfile.read_many(args.csv, args.time_column,
+                                               drop_nan=args.drop_nan, dedupe=args.dedupe)
+  ins = table.columns(names_list(args.inputs), "--inputs")
+  outs = table.columns(names_list(args.targets), "--targets")
+  if set(ins) & set(outs):
+    raise errors.SettingError("--inputs and --targets share columns: "
+                              + ", ".join(table.names[i] for i in set(ins) & set(outs)))
+  ready = prepare.apply(tables, ins, outs, steps)
+  for line in table.cleaned + ready.said:
+    print(line)
+  recording = recording[ready.rows]
+  if args.group is not None:
+    (g,) = table.columns([args.group], "--group")
+    if g in ins or g in outs:
+      raise errors.SettingError(f"--group {args.group} is also an input or a target")
+    column = table.data[ready.rows, g]
+    recording = recording * (1 + int(np.abs(column).max())) + column
+  x, y = ready.x, ready.y
+  args.prepared = ready.record
+  args.recording = recording  # each row's recording: the temporal front end's segments
+  args.dt = sample_time(table, args, ready.rows, recording) \
+      if getattr(args, "history", None) is not None or getattr(args, "track_drift", None) \
+      is not None or getattr(args, "method", None) == "gru" else None
+  try:
+    groups = splits_lib.groups(len(x), args.split, recording, x)
+  except errors.SettingError as err:  # too few rows or recordings: say which file
+    raise errors.DataError(f"{table.path}: {len(table.data)} data row(s) in {recording.max() + 1} "
+                           f"recording(s), --split {args.split}: {err}") from None
+  names = dict(inputs=[table.names[i] for i in ins], outputs=[table.names[i] for i in outs],
+               input_units=[table.units[i] or "counts" for i in ins],
+               output_units=[table.units[i] or "N" for i in outs])
+  return table, x, y, groups, names
+
+
+def static_only(what: str, args) -> None:
+  """Refuses the temporal front end's options where they would not be read."""
+  if args.history is not None or args.track_drift is not None:
+    raise errors.SettingError(f"{what} compares static estimators: --history and "
+                              f"--track-drift go with fit --method ls, poly, lsann, nn or gru")
+
+
+def sample_time(table, args, rows, recording) -> float:
+  """s between samples: the median step of the time column within recordings."""
+  t = table.column(args.time_column)
+  if t is None:
+    raise errors.SettingError(f"--history, --track-drift and --method gru read the recording "
+                              f"in time: "
+                              f"the files need a {args.time_column!r} column (or name it "
+                              f"with --time-column)")
+  t = t[rows]
+  step = np.diff(t)[np.diff(recording) == 0]
+  if not len(step):
+    raise errors.DataError(f"{table.path}: too few rows to tell the time between samples")
+  return float(np.median(step))
+
+
+def held_out_groups(what: str, groups, args) -> None:
+  """Refuses a choice made on held-out groups when there are none to hold out."""
+  if groups.count < 2 or args.folds < 2:
+    raise errors.SettingError(f"{what} chooses on held-out groups: give --folds 2 or more, "
+                              f"and data that make two groups or more")
+
+
+def fit_auto(args, x, y, groups, names):
+  from calibrate import estimators
+  from util.progress import progress_bar, quiet
+  held_out_groups("--method auto", groups, args)
+  config, widths = net_config(args)
+  return estimators.fit_auto(
+      x, y, groups, args.folds, config=config, widths=widths, seed=args.seed,
+      val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
+      progress=quiet if args.no_progress else progress_bar("training"), **names)
+
+
+def with_preparation(est, record: dict):
+  """The estimator with the preparation its inputs had (unwrap periods, tare rule) in its
+  settings, which `predict`, `evaluate` and the C export apply to new recordings."""
+  import dataclasses
+  return dataclasses.replace(est, info=dataclasses.replace(
+      est.info, settings={**est.info.settings, "prepare": record}))
+
+
+def new_recording(est, args, targets: bool = False):
+  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recording read and
+  prepared as the estimator's training recordings were (its unwrap and tare), with the
+  estimator's outputs as targets when `targets` (tared by the same rule)."""
+  table = csvfile.read(args.csv, args.time_column, drop_nan=args.drop_nan,
+                       dedupe=args.dedupe)
+  names = est.info.inputs if est.info is not None else None
+  if names is None:
+    raise errors.DataError(f"{args.command}: the estimator holds no input names (fitted "
+                           f"before they were saved): fit it again")
+  ins = table.columns(list(names), "--csv (the estimator's inputs)")
+  outs = table.columns(list(est.info.outputs), "--csv (the estimator's outputs)") \
+      if targets else None
+  record = est.info.settings.get("prepare") or {}
+  periods = record.get("unwrap_periods")
+  tare = prepare.Tare.from_json(record.get("tare"))
+  ready = prepare.apply([table], ins, outs, prepare.Steps(None, args.rails, args.drop_rails,
+                                                          tare),
+                        None if periods is None else np.asarray(periods))
+  for line in table.cleaned + ready.said:
+    print(line)
+  return table, ready
+
+
+def print_candidates(est, candidates: dict) -> None:
+  """The held-out RMSE of every candidate per output, the kept one marked."""
+  info = est.info
+  print(f"{'method':8s} " + " ".join(f"{n:>12s}" for n in info.outputs) + f" {'fit s':>8s}")
+  chosen = info.validation["chosen"]
+  for method, row in candidates.items():
+    print(f"{method:8s} " + " ".join(
+        f"{v:11.4g}{'*' if chosen[j] == method else ' '}" for j, v in enumerate(row["cv_rmse"]))
+        + f" {row['seconds']:8.1f}")
+  print("held-out RMSE per output (grouped cross-validation); * the method kept for it")

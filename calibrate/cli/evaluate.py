@@ -1,0 +1,82 @@
+"""`python -m calibrate evaluate`: the papers' metrics and figures of an estimator on held-out data."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+
+from calibrate.cli import common
+from util import cli, errors, files
+
+def add_parser(sub) -> None:
+  p = sub.add_parser("evaluate", help="the papers' metrics and figures on held-out data")
+  common.recording_args(p)
+  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
+                 help="folder for metrics.csv, metrics.json and figures (evaluation/)")
+  p.add_argument("--level", type=float, default=0.95,
+                 help="the interval level whose coverage to report (default 0.95)")
+
+def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
+  """The papers' metrics per output: RMSE (its unit), NRMSE %, R2 %, median % error (over
+  samples above `THRESHOLDS` of the unit) and worst error as % of the range."""
+  from calibrate import metrics
+  out = {}
+  for i, (name, unit) in enumerate(zip(names, units)):
+    one = metrics.summary(pred[:, i:i + 1], truth[:, i:i + 1], (name,),
+                          common.THRESHOLDS.get(unit, 0.0))
+    out[name] = one[name]
+  return out
+
+
+def run(args) -> int:
+  from calibrate import estimators, figures, metrics as metrics_lib
+  out = files.output_folder(args.out, "--out")
+  if not 0.5 <= args.level <= 0.999:
+    raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
+  est = estimators.Estimator.load(args.estimator)
+  table, ready = common.new_recording(est, args, targets=True)
+  x, truth = ready.x, ready.y  # the truth tared by the same rule, as in training
+  pred = est.predict(x)
+  names, units = est.info.outputs, est.info.output_units
+  result = scores(pred, truth, names, units)
+  info = est.info
+  if info.interval_abs is not None:  # the interval fit promised, against what it covers here
+    half = info.half_width(args.level)
+    inside = np.abs(truth - pred) <= half
+    for j, n in enumerate(names):
+      result[n]["interval_half_width"] = float(half[j])
+      result[n]["interval_coverage_pct"] = float(100 * inside[:, j].mean())
+  if info.output_lo is not None:  # truth beyond what the fit saw: every method under-reaches
+    beyond = (truth < info.output_lo) | (truth > info.output_hi)
+    for j, n in enumerate(names):
+      result[n]["truth_outside_training_pct"] = float(100 * beyond[:, j].mean())
+  print(f"{est.kind.value} on {len(x)} samples of {args.csv}")
+  cover = info.interval_abs is not None
+  print(f"{'output':8s} {'RMSE':>10s} {'NRMSE %':>8s} {'R2 %':>8s} {'median %':>9s} "
+        f"{'worst %':>8s}" + (f" {f'in {args.level:.0%} int.':>12s}" if cover else "")
+        + f" {'truth beyond fit %':>18s}")
+  for n, u in zip(names, units):
+    r = result[n]
+    print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
+          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}"
+          + (f" {r['interval_coverage_pct']:11.1f}%" if cover else "")
+          + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
+  if not cover:
+    print("no interval: the estimator was fitted without grouped cross-validation")
+  metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
+             "method": est.kind.value, "results": result}
+  text = files.json_text(metrics, indent=1)
+  files.write_text(out / "metrics.json", text)
+  files.write_text(out / "metrics.csv", metrics_lib.csv_text(
+      metrics_lib.scored("results", {est.kind.value: result})))
+  t = table.column(args.time_column)
+  t = np.arange(len(x), dtype=float) if t is None else t[ready.rows]
+  label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
+  figures.save(figures.over_time(t, truth, {est.kind.value: pred}, names, "/".join(
+      dict.fromkeys(units)), benchmark=label, seed=est.info.settings.get("seed", 0)),
+      out, "over_time")
+  figures.save(figures.scatter(truth, {est.kind.value: pred}, names, units, benchmark=label,
+                               seed=est.info.settings.get("seed", 0)), out, "predicted_vs_true")
+  print(f"wrote {out}/metrics.csv, metrics.json, figures/")
+  return 0

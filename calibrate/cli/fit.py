@@ -1,0 +1,134 @@
+"""`python -m calibrate fit`: an estimator fitted on CSV recordings, and what it is worth."""
+
+from __future__ import annotations
+
+import pathlib
+
+import numpy as np
+
+from calibrate.cli import common
+from util import cli, errors, files
+
+def add_parser(sub) -> None:
+  p = sub.add_parser("fit", help="fit an estimator on CSV recordings")
+  common.training_args(p)
+  p.add_argument("--method", required=True, type=common.method_arg,
+                 metavar="{" + ",".join(common.METHODS) + "}",
+                 help="ls: linear least squares; poly: polynomial with cross terms; "
+                      "lsann: LS plus a network on its residual; nn: the network alone; "
+                      "gru: LS plus a small recurrent network (GRU) on its residual, "
+                      "reading the inputs' past (needs the time column); auto: ls, "
+                      "poly, lsann and nn on the same held-out groups, the best kept per "
+                      "output")
+  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
+                 help="where to write the estimator (default estimator.npz)")
+  p.add_argument("--per-channel", action="store_true",
+                 help="poly: powers of each channel alone, no cross terms and no ridge "
+                      "(the force-sensing-shell paper's pseudoinverse); default: every "
+                      "product of total degree <= --degree, continued linearly beyond "
+                      "the training box")
+
+
+def run(args) -> int:
+  from calibrate import estimators
+  files.output_file(args.out, "--out", (".npz",))
+  common.check_options(args, args.method)
+  if args.method == "auto":
+    common.static_only("fit --method auto", args)
+  table, x, y, groups, names = common.training_data(args)
+  if args.method == "auto":
+    est, candidates = common.fit_auto(args, x, y, groups, names)
+    est = common.with_preparation(est, args.prepared)
+    est.save(args.out)
+    common.print_candidates(est, candidates)
+    report(est, table, args, y, groups)
+    print(f"wrote {args.out}")
+    return 0
+  from util.progress import progress_bar, quiet
+  progress = quiet if args.no_progress else progress_bar("training")
+  config, widths = common.net_config(args)
+  if widths:
+    common.held_out_groups("--hidden auto", groups, args)
+  shared = dict(config=config, widths=widths, val_fraction=args.val_fraction,
+                degree=args.degree, ensemble=args.ensemble, progress=progress,
+                groups=groups, folds=args.folds if groups.count >= 2 else 0,
+                cross=args.method == "poly" and not args.per_channel)
+  kind = estimators.Kind(args.method.upper())
+  try:
+    if args.dt is None:
+      est = estimators.fit(kind, x, y, seed=args.seed, **names, **shared)
+    else:
+      from calibrate.parts import memory
+      est = estimators.fit_temporal(
+          kind, x, y, args.dt, segments=args.recording, seed=args.seed,
+          taus=None if args.history == "auto" else (args.history or ()),
+          differences=args.history is not None,
+          tare=None if args.track_drift is None else memory.Tare(args.track_drift),
+          gru=common.gru_config(args), **names, **shared)
+    est = common.with_preparation(est, args.prepared)
+  except errors.DataError as err:  # say which file, and how many rows it gave
+    raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
+                           f"{args.val_fraction:.0%} of them held out for validation: "
+                           f"{err}") from None
+  est.save(args.out)
+  report(est, table, args, y, groups)
+  print(f"wrote {args.out}")
+  return 0
+
+
+def report(est, table, args, y: np.ndarray, groups) -> None:
+  """What `fit` prints: the data, the split, the held-out error and the interval."""
+  info = est.info
+  units = info.output_units
+  print(f"fitted {est.kind.value} on {info.samples} samples of {table.path} "
+        f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
+  v = info.validation
+  print(f"validation: {groups.describe()}")
+  if "width_cv" in info.settings:
+    table = info.settings["width_cv"]
+    print(f"network width {info.settings['config']['hidden']} (held-out error, each output's "
+          f"MSE over its variance: " + ", ".join(f"{w}: {v:.3g}" for w, v in table.items())
+          + ")")
+  if info.settings.get("cross"):
+    print(f"polynomial: every product of total degree <= {info.settings['degree']}, ridge "
+          f"{info.settings['ridge_per_sample']:g} per sample"
+          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in info.settings
+             else "") + "; linear beyond the training box")
+  if v:
+    print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
+        f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
+    half = info.half_width(args.level)
+    scale = np.abs(y).max(axis=0)
+    print(f"{args.level:.0%} interval (held-out groups): " + ", ".join(
+        f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
+        f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
+    between = info.between_width(args.level)
+    if between.any():
+      g = len(info.interval_offsets)
+      print(f"  of which how far a new group's mean error may lie (Student's t over {g} "
+            f"groups' means): " + ", ".join(f"{n} +-{b:.4g} {u}" for n, b, u in
+                                            zip(info.outputs, between, units))
+            + ("; more recordings narrow it" if g < 8 else ""))
+    if v.get("ls_only"):
+      print(f"LSANN keeps only its LS stage on {', '.join(v['ls_only'])}: its network did not "
+            f"beat the LS stage on held-out groups there")
+  else:
+    print("no cross-validation (--folds 0, or a single group): no interval; the validation "
+          "residual sd " + ", ".join(f"{n} {s:.4g} {u}" for n, s, u in
+                                     zip(info.outputs, info.residual_sd, units)))
+  stops = [m.training for m in (est.members or (est,)) if m.training is not None]
+  if len(stops) > 3:  # an ensemble: the spread, not a line per network
+    why = sorted({t.stop.value for t in stops})
+    epochs = np.array([t.epochs for t in stops])
+    print(f"training stopped: {len(stops)} networks ({'; '.join(why)}), after "
+          f"{epochs.min()}-{epochs.max()} epochs (median {np.median(epochs):.0f}), "
+          f"{sum(t.seconds for t in stops):.1f} s in all")
+  elif stops and est.rnn is not None:  # a recurrent network: Adam steps, held-out checks
+    t = stops[0]
+    why = "the step cap" if t.stop.name == "MAX_EPOCHS" else \
+        f"{est.info.settings['gru']['patience']} held-out checks without a better error"
+    print(f"training stopped: {why} after {t.epochs} Adam steps ({t.seconds:.1f} s); kept "
+          f"the weights of step {t.best_epoch}")
+  elif stops:
+    print("training stopped: " + "; ".join(
+        f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))

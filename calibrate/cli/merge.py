@@ -1,0 +1,77 @@
+"""`python -m calibrate merge`: two raw streams (sensor, reference) into one recording."""
+
+from __future__ import annotations
+
+import argparse
+import pathlib
+from typing import Optional
+
+import numpy as np
+
+from calibrate import csvfile, streams
+from calibrate.cli import common
+from util import cli, errors, files
+
+
+def add_parser(sub) -> None:
+  p = sub.add_parser("merge", help="two raw streams (sensor, reference) into one recording",
+                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                     description=streams.__doc__)
+  p.add_argument("pairs", type=cli.path_arg, nargs="+", metavar="SENSOR.csv REFERENCE.csv",
+                 help="a sensor file and its reference file; several pairs for several "
+                      "recordings")
+  p.add_argument("--lag", type=lag, default=None, metavar="SECONDS",
+                 help="how much later the reference stamps the same event (its samples move "
+                      "earlier by it); default: estimated from the data, and printed either "
+                      "way")
+  p.add_argument("--max-lag", type=float, default=1.0,
+                 help="the largest lag the estimate considers, seconds (default 1)")
+  p.add_argument("--max-gap", type=float, default=None, metavar="SECONDS",
+                 help="the longest reference gap interpolated across (default "
+                      f"{streams.GAP_PERIODS:g} median reference periods)")
+  p.add_argument("--time-column", default="time", help="name of the time column (time)")
+  common.cleaning_args(p)
+  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("merged"),
+                 help="folder for the merged recordings, one per pair, named after the "
+                      "sensor file (default merged/)")
+
+
+def lag(text: str) -> Optional[float]:
+  if text.strip().lower() == "auto":
+    return None
+  try:
+    return float(text)
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not seconds or 'auto'") from None
+
+
+def run(args) -> int:
+  if len(args.pairs) % 2:
+    raise errors.SettingError(f"merge takes files in pairs, SENSOR.csv REFERENCE.csv: got "
+                              f"{len(args.pairs)} files")
+  if not 0 < args.max_lag <= 60:
+    raise errors.SettingError(f"--max-lag {args.max_lag:g} is out of range: allowed (0, 60] s")
+  out = files.output_folder(args.out, "--out")
+  pairs = list(zip(args.pairs[::2], args.pairs[1::2]))
+  stems = [pathlib.Path(a).stem for a, _ in pairs]
+  if len(set(stems)) != len(stems):
+    raise errors.SettingError("two sensor files share a name; the merged recordings are named "
+                              "after them: rename one")
+  done = []
+  for (a, b), stem in zip(pairs, stems):
+    sensor = csvfile.read(a, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+    reference = csvfile.read(b, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+    for line in sensor.cleaned + reference.cleaned:
+      print(line)
+    m = streams.merge(sensor, reference, args.lag, args.max_gap, args.time_column,
+                      args.max_lag)
+    csvfile.write(out / f"{stem}.csv", m.names, m.data, m.units)
+    print(m.describe(str(a)))
+    done.append(m)
+  lags = [m.lag * 1e3 for m in done]
+  print(f"merged {len(done)} pair(s): {sum(len(m.data) for m in done):,} rows kept, "
+        f"{sum(m.outside for m in done):,} outside the overlap and "
+        f"{sum(m.in_gaps for m in done):,} in reference gaps dropped, lag "
+        + (f"{lags[0]:.1f} ms" if len(set(np.round(lags, 1))) == 1 else
+           f"{min(lags):.1f}-{max(lags):.1f} ms") + f"; wrote {out}/")
+  return 0
