@@ -39,7 +39,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         output_units: Optional[Sequence[str]] = None,
         groups: Optional[splits.Groups] = None, folds: int = 0,
         cross: bool = False, ridge: Optional[float] = None,
-        widths: Sequence[int] = (), net_inputs: Optional[int] = None) -> Estimator:
+        widths: Sequence[int] = (), net_inputs: Optional[int] = None,
+        gp=None) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -70,6 +71,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       in place of `config.hidden`.
     net_inputs: for LSANN and NN, the network reads only the first this many input columns
       (None: all); the LS stage reads all.
+    gp: for LSGP, the Gaussian process's settings (`calibrate.parts.gp.GPConfig`; None: its
+      defaults).
     folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
       its held-out residuals size the estimator's interval (`Info.half_width`) and its
       RMSE per output is kept; an LSANN output whose network does not beat its LS stage
@@ -80,7 +83,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       val_fraction=val_fraction, seed=seed, progress=progress, degree=degree,
       snapshots=snapshots, val_block=val_block, ensemble=ensemble, inputs=inputs,
       outputs=outputs, input_units=input_units, output_units=output_units, groups=groups,
-      folds=folds, cross=cross, ridge=ridge, widths=widths, net_inputs=net_inputs)
+      folds=folds, cross=cross, ridge=ridge, widths=widths, net_inputs=net_inputs, gp=gp)
 
 
 def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, folds: int = 5,

@@ -117,6 +117,24 @@ class NetworkRecipe:
     return Fitted(tuple(parts), tuple(sds), tuple(runs))
 
 
+@dataclasses.dataclass(frozen=True)
+class GPRecipe:
+  """LS, then a Gaussian process (`calibrate.parts.gp`) on its residual (LSGP)."""
+  config: object = None  # calibrate.parts.gp.GPConfig; None: its defaults
+  residual = True
+  SEEDED = False
+
+  def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
+    from calibrate.parts import gp
+    config = self.config or gp.GPConfig()
+    lin = given or linear.fit_linear(x, y)
+    targets = y - lin.predict(x)
+    tr, va = val.split(where, seed)
+    held = gp.fit(x[tr], targets[tr], config, seed)
+    sd = np.std(targets[va] - held.predict(x[va]), axis=0)
+    return Fitted((compose.Residual(lin, gp.fit(x, targets, config, seed)),), (sd,), (None,))
+
+
 def predictor(fitted: Fitted):
   """One part that predicts what the fit gives: its member, or their mean."""
   return fitted.parts[0] if len(fitted.parts) == 1 else compose.Mean(fitted.parts)
@@ -282,6 +300,7 @@ RECIPES = {
     "POLY": LinearRecipe,  # with cross=True: PolyRecipe
     "LSANN": NetworkRecipe,
     "NN": NetworkRecipe,
+    "LSGP": GPRecipe,
 }
 
 
@@ -297,6 +316,8 @@ def recipe(kind: str, options: dict, settings: dict, x, y, parts):
     ridge = 0.0 if ridge is None else float(ridge)
     settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
     return PolyRecipe(degree, ridge)
+  if kind == "LSGP":
+    return GPRecipe(options["gp"])
   if kind in ("LS", "POLY"):
     degree = options["degree"] if kind == "POLY" else 1
     if kind == "POLY":
@@ -310,7 +331,7 @@ def recipe(kind: str, options: dict, settings: dict, x, y, parts):
 def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fraction=0.15,
         seed=0, progress=None, degree=3, snapshots=(), val_block=None, ensemble=1, inputs=None,
         outputs=None, input_units=None, output_units=None, groups=None, folds=0, cross=False,
-        ridge=None, widths=(), net_inputs=None):
+        ridge=None, widths=(), net_inputs=None, gp=None):
   """`calibrate.estimators.fit` (its docstring says what each option does)."""
   counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
                          net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
@@ -322,7 +343,8 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
     settings.update(split=groups.how, groups=groups.count, block=groups.block)
   parts = splits.folds(groups, folds, seed) if folds else []
   how = recipe(kind.value, dict(cross=cross, ridge=ridge, degree=degree, config=config,
-                                ensemble=ensemble, net_inputs=net_inputs, snapshots=snapshots),
+                                ensemble=ensemble, net_inputs=net_inputs, snapshots=snapshots,
+                                gp=gp),
                settings, counts, forces, parts)
   val = Validation(val_fraction, val_block)
   cv = None

@@ -182,3 +182,17 @@ def test_every_document_a_source_names_is_in_the_repository():
              if not (ROOT / n).exists() and not (p.parent / n).exists()
              and n.rsplit("/", 1)[-1] != outputs.TABLE]  # what a run writes
   assert not missing, missing
+
+
+def test_families_stand_alone():
+  """A model family (calibrate/parts/*.py) imports the parts' base, other families and the C
+  emitter only: nothing of the composites, the fits, the file format or the command line, so
+  a new family is one file and one registry line (calibrate.parts.FAMILIES)."""
+  from calibrate import parts
+  allowed = {"calibrate.parts", "calibrate.parts.base", "calibrate.cexport.emitter"} | {
+      module for module, _ in parts.FAMILIES.values()}
+  families = [m for m in GRAPH if m.startswith("calibrate.parts.") and m != "calibrate.parts.base"]
+  assert {module for module, _ in parts.FAMILIES.values()} <= set(families)
+  for m in families:
+    wrong = sorted(d for d in GRAPH[m] if d.startswith("calibrate") and d not in allowed)
+    assert not wrong, f"{m} imports {wrong}"

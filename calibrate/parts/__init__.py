@@ -18,6 +18,7 @@ FAMILIES = {
     "mlp": ("calibrate.parts.mlp", "MLP"),
     "gru": ("calibrate.parts.gru", "GRU"),
     "memory": ("calibrate.parts.memory", "Memory"),
+    "gp": ("calibrate.parts.gp", "GP"),
 }
 
 
@@ -35,6 +36,7 @@ OPTIONS = {
             "--ensemble": None},
     "gru": {"--hidden": "hidden", "--epochs": "steps"},
     "memory": {},
+    "gp": {},
 }
 
 # each method of `python -m calibrate fit --method` and the families it is built from
@@ -45,6 +47,7 @@ METHODS = {
     "nn": ("mlp",),
     "gru": ("linear", "gru"),
     "auto": ("linear", "poly", "mlp"),
+    "lsgp": ("linear", "gp"),
 }
 
 
