@@ -164,6 +164,34 @@ def read(path, time_column: str = "time", drop_nan: bool = False,
 
   def cells(k: int) -> list[str]:
     return [c.strip() for c in next(csv.reader([physical[k]]))]
+  names, units, rows = _header(path, kept, cells)
+  if not rows:
+    raise errors.DataError(f"{path}: no data rows after the header")
+  try:  # all at once in C; the row-by-row pass below only finds what is wrong
+    data = np.loadtxt([physical[k] for k in rows], delimiter=",", dtype=np.float64, ndmin=2)
+    bad = data.shape != (len(rows), len(names)) or not np.isfinite(data).all()
+  except ValueError:
+    bad = True
+  cleaned = []
+  if bad:
+    rows, data, cleaned = _checked_rows(path, rows, names, cells, drop_nan)
+  lines = np.asarray(rows) + 1
+  t = data[:, names.index(time_column)] if time_column in names else None
+  if t is not None:
+    data, lines, note = _repeated_times(path, data, lines, names.index(time_column), dedupe)
+    cleaned += note
+    t = data[:, names.index(time_column)]
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+      raise errors.DataError(
+          f"{path} line {lines[bad[0] + 1]}, column {time_column!r}: time "
+          f"{t[bad[0] + 1]:g} does not increase (previous row {t[bad[0]]:g})")
+  return Table(tuple(names), tuple(units), data, str(path), lines, tuple(cleaned))
+
+
+def _header(path, kept: list[int], cells):
+  """(names, units, the data rows' line indices) from the first kept lines: a row of
+  names, then optionally a row of units (one with no number in it)."""
   names = cells(kept[0])
   if any(_number(n) is not None for n in names) or len(set(names)) != len(names) or \
      not all(names):
@@ -179,55 +207,41 @@ def read(path, time_column: str = "time", drop_nan: bool = False,
       raise errors.DataError(f"{path} line {rows[0] + 1}: {len(units)} units for "
                              f"{len(names)} columns")
     rows = rows[1:]
-  if not rows:
-    raise errors.DataError(f"{path}: no data rows after the header")
-  try:  # all at once in C; the row-by-row pass below only finds what is wrong
-    data = np.loadtxt([physical[k] for k in rows], delimiter=",", dtype=np.float64, ndmin=2)
-    bad = data.shape != (len(rows), len(names)) or not np.isfinite(data).all()
-  except ValueError:
-    bad = True
-  cleaned = []
-  if bad:
-    kept_rows, dropped = [], 0
-    for k in rows:
-      row = cells(k)
-      if len(row) != len(names):
-        raise errors.DataError(f"{path} line {k + 1}: {len(row)} cells for {len(names)} "
-                               f"columns")
-      missing = False
-      for c, cell in enumerate(row):
-        value = _number(cell)
-        if drop_nan and (not cell or (value is not None and np.isnan(value))):
-          missing = True
-          continue
-        if value is None or not np.isfinite(value):
-          why = ("is empty" if not cell else f"{cell!r} is not a finite number")
-          hint = " (--drop-nan drops such rows, counted)" if not cell or cell.lower() == \
-              "nan" else ""
-          raise errors.DataError(f"{path} line {k + 1}, column {names[c]!r}: {why}{hint}")
-      if missing:
-        dropped += 1
-      else:
-        kept_rows.append(k)
-    if not kept_rows:
-      raise errors.DataError(f"{path}: every data row has an empty cell or NaN")
-    if dropped:
-      cleaned.append(f"{dropped} row(s) with an empty cell or NaN dropped")
-    rows = kept_rows
-    # every cell is a number after all (quoted cells, say): read them one by one
-    data = np.array([[float(c) for c in cells(k)] for k in rows], dtype=np.float64)
-  lines = np.asarray(rows) + 1
-  t = data[:, names.index(time_column)] if time_column in names else None
-  if t is not None:
-    data, lines, note = _repeated_times(path, data, lines, names.index(time_column), dedupe)
-    cleaned += note
-    t = data[:, names.index(time_column)]
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-      raise errors.DataError(
-          f"{path} line {lines[bad[0] + 1]}, column {time_column!r}: time "
-          f"{t[bad[0] + 1]:g} does not increase (previous row {t[bad[0]]:g})")
-  return Table(tuple(names), tuple(units), data, str(path), lines, tuple(cleaned))
+  return names, units, rows
+
+
+def _checked_rows(path, rows: list[int], names: list[str], cells, drop_nan: bool):
+  """(rows kept, their data, what was dropped) read cell by cell: the first cell that is
+  not a finite number is refused by line and column, or with `drop_nan` an empty or NaN
+  cell drops its row."""
+  cleaned, kept_rows, dropped = [], [], 0
+  for k in rows:
+    row = cells(k)
+    if len(row) != len(names):
+      raise errors.DataError(f"{path} line {k + 1}: {len(row)} cells for {len(names)} "
+                             f"columns")
+    missing = False
+    for c, cell in enumerate(row):
+      value = _number(cell)
+      if drop_nan and (not cell or (value is not None and np.isnan(value))):
+        missing = True
+        continue
+      if value is None or not np.isfinite(value):
+        why = ("is empty" if not cell else f"{cell!r} is not a finite number")
+        hint = " (--drop-nan drops such rows, counted)" if not cell or cell.lower() == \
+            "nan" else ""
+        raise errors.DataError(f"{path} line {k + 1}, column {names[c]!r}: {why}{hint}")
+    if missing:
+      dropped += 1
+    else:
+      kept_rows.append(k)
+  if not kept_rows:
+    raise errors.DataError(f"{path}: every data row has an empty cell or NaN")
+  if dropped:
+    cleaned.append(f"{dropped} row(s) with an empty cell or NaN dropped")
+  # every cell is a number after all (quoted cells, say): read them one by one
+  data = np.array([[float(c) for c in cells(k)] for k in kept_rows], dtype=np.float64)
+  return kept_rows, data, cleaned
 
 
 def _repeated_times(path, data: np.ndarray, lines: np.ndarray, col: int,

@@ -192,6 +192,34 @@ def _where(table, rows: Sequence[int]) -> str:
   return f"line {shown}{more}"
 
 
+def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
+  """What the estimator keeps of the preparation, for `predict`, `evaluate` and the C."""
+  raw = np.vstack([t.data[:, inputs] for t in tables])
+  times = [t.column(steps.tare.time_column if steps.tare else "time") for t in tables]
+  steps_s = [np.diff(t) for t in times if t is not None and len(t) > 1]
+  record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
+            "tare": None if steps.tare is None else steps.tare.to_json(),
+            # what the C export takes when it tares the raw inputs itself
+            "raw_integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
+                                              & (raw == np.round(raw)))),
+            "sample_rate": float(1 / np.median(np.concatenate(steps_s))) if steps_s else None,
+            "steps": list(said)}
+  return record
+
+
+def _jumps_said(table, x: np.ndarray, names: list[str], periods) -> list[str]:
+  """One line per channel with one-sample jumps over half its register (with periods,
+  which are undone) or over 3/4 of its range (a wrap-around, perhaps)."""
+  per = {}
+  for row, c in (jumps(x, periods / 2) if periods is not None else wrap_like(x)):
+    per.setdefault(c, []).append(row)
+  size = "half its register" if periods is not None else "3/4 of its range"
+  return [f"{table.path}: {names[c]}: {len(rows)} one-sample jump(s) over {size}, "
+          f"{_where(table, rows)}" + (" (undone)" if periods is not None else
+                                      ": register wrap-around? --unwrap BITS undoes them")
+          for c, rows in per.items()]
+
+
 def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps: Steps,
           periods: Optional[np.ndarray] = None) -> Prepared:
   """Runs the steps on each recording (a `csvfile.Table` each) and stacks them.
@@ -212,24 +240,13 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
     x = table.data[:, inputs]
     y = None if targets is None else table.data[:, targets]
     keep = np.ones(len(x), bool)
-    found = jumps(x, periods / 2) if periods is not None else wrap_like(x)
-    if found:
-      per = {}
-      for row, c in found:
-        per.setdefault(c, []).append(row)
-      for c, rows in per.items():
-        size = "half its register" if periods is not None else "3/4 of its range"
-        said.append(f"{table.path}: {names[inputs[c]]}: {len(rows)} one-sample jump(s) over "
-                    f"{size}, {_where(table, rows)}"
-                    + (" (undone)" if periods is not None else
-                       ": register wrap-around? --unwrap BITS undoes them"))
+    said += _jumps_said(table, x, [names[i] for i in inputs], periods)
     if periods is not None:
       x, undone = unwrap(x, periods)
     rail = at_rails(x, steps.rails)
     for c in np.flatnonzero(rail.any(axis=0)):
-      share = rail[:, c].mean()
       said.append(f"{table.path}: {names[inputs[c]]} at its rail in {rail[:, c].sum()} of "
-                  f"{len(x)} samples ({share:.1%})"
+                  f"{len(x)} samples ({rail[:, c].mean():.1%})"
                   + (" (dropped)" if steps.drop_rails else ": --drop-rails removes them"))
     if steps.drop_rails:
       keep &= ~rail.any(axis=1)
@@ -254,15 +271,6 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
                                                zip(inputs, periods)))
   if steps.tare is not None:
     said.append(f"tare: each input and target less its median over {steps.tare.describe()}")
-  raw = np.vstack([t.data[:, inputs] for t in tables])
-  times = [t.column(steps.tare.time_column if steps.tare else "time") for t in tables]
-  steps_s = [np.diff(t) for t in times if t is not None and len(t) > 1]
-  record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
-            "tare": None if steps.tare is None else steps.tare.to_json(),
-            # what the C export takes when it tares the raw inputs itself
-            "raw_integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
-                                              & (raw == np.round(raw)))),
-            "sample_rate": float(1 / np.median(np.concatenate(steps_s))) if steps_s else None,
-            "steps": list(said)}
+  record = _record(tables, inputs, steps, periods, said)
   return Prepared(np.vstack(xs), None if targets is None else np.vstack(ys),
                   np.concatenate(recs), np.concatenate(kept), tuple(said), record)

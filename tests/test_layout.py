@@ -196,3 +196,14 @@ def test_families_stand_alone():
   for m in families:
     wrong = sorted(d for d in GRAPH[m] if d.startswith("calibrate") and d not in allowed)
     assert not wrong, f"{m} imports {wrong}"
+
+
+def test_no_function_of_calibrate_runs_past_sixty_lines():
+  """calibrate/ is what users run on their own rigs: every function reads on one screen."""
+  long = []
+  for name, path in _modules().items():
+    if name.split(".")[0] == "calibrate":
+      for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.FunctionDef) and node.end_lineno - node.lineno >= 60:
+          long.append(f"{name}.{node.name}: {node.end_lineno - node.lineno + 1} lines")
+  assert not long, long

@@ -69,6 +69,29 @@ def rails(text: str) -> tuple[float, float]:
   return lo, hi
 
 
+def preparation_args(p: argparse.ArgumentParser) -> None:
+  """What `fit` and `compare` do to the recordings before fitting: tare, front end, unwrap."""
+  p.add_argument("--tare", type=float, default=None, metavar="SECONDS",
+                 help="the first SECONDS of each recording are unloaded: each input and "
+                      "target less its median there; the estimator keeps the rule for "
+                      "predict, evaluate and the C export")
+  p.add_argument("--tare-column", default=None, metavar="FLAG",
+                 help="as --tare, the unloaded rows being those where the column FLAG is 0 "
+                      "(a contact flag)")
+  p.add_argument("--history", type=history, default=None, metavar="auto|SECONDS,...",
+                 help="give the estimator the recording's past (`calibrate.parts.memory`): each "
+                      "input's high-pass at these time constants and its first difference "
+                      "('auto': chosen on held-out recordings); needs the time column")
+  p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
+                 help="re-zero each input during unloaded intervals, those where the LS map's "
+                      "third target (the normal force) reads under NEWTONS for 21 samples; "
+                      "needs the time column")
+  p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
+                 help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
+                      "the range, which are reported either way): +-2**BITS times the "
+                      "channel's smallest step")
+
+
 def training_args(p: argparse.ArgumentParser) -> None:
   """The options `fit` and `compare` share: the recordings, the columns, the split."""
   p.add_argument("--csv", required=True, type=cli.path_arg, nargs="+",
@@ -109,25 +132,7 @@ def training_args(p: argparse.ArgumentParser) -> None:
   p.add_argument("--no-progress", action="store_true", help="no progress bar")
   cleaning_args(p)
   rails_args(p)
-  p.add_argument("--tare", type=float, default=None, metavar="SECONDS",
-                 help="the first SECONDS of each recording are unloaded: each input and "
-                      "target less its median there; the estimator keeps the rule for "
-                      "predict, evaluate and the C export")
-  p.add_argument("--tare-column", default=None, metavar="FLAG",
-                 help="as --tare, the unloaded rows being those where the column FLAG is 0 "
-                      "(a contact flag)")
-  p.add_argument("--history", type=history, default=None, metavar="auto|SECONDS,...",
-                 help="give the estimator the recording's past (`calibrate.parts.memory`): each "
-                      "input's high-pass at these time constants and its first difference "
-                      "('auto': chosen on held-out recordings); needs the time column")
-  p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
-                 help="re-zero each input during unloaded intervals, those where the LS map's "
-                      "third target (the normal force) reads under NEWTONS for 21 samples; "
-                      "needs the time column")
-  p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
-                 help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
-                      "the range, which are reported either way): +-2**BITS times the "
-                      "channel's smallest step")
+  preparation_args(p)
   p.add_argument("--ensemble", type=int, default=None,
                  help="LSANN and NN (also within auto): the mean of networks from this "
                       "many seeds, which predict --std spreads; at few load states 5 "

@@ -402,20 +402,7 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   """
   config.validate()
   rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
-  if len(runs) >= config.min_recordings:
-    units = list(runs)
-  else:  # too few recordings to hold whole ones out: contiguous blocks of them
-    units = [(k, min(k + config.block, hi)) for lo, hi in runs
-             for k in range(lo, hi, config.block)]
-  order = rng.permutation(len(units))
-  n_val = min(len(units) - 1, max(1, int(round(config.val_fraction * len(units)))))
-  val_units = [units[k] for k in sorted(order[:n_val])]
-  held = np.zeros(len(x), bool)
-  for lo, hi in val_units:
-    held[lo:hi] = True
-  fit_rows, val_rows = select & ~held, select & held
-  if not fit_rows.any() or not val_rows.any():
-    raise errors.DataError("no selected sample in the training or in the held-out part")
+  fit_rows, val_rows, val_units = _held_out_units(len(x), runs, select, config, rng)
   x_mean, x_scale = x[fit_rows].mean(axis=0), x[fit_rows].std(axis=0)
   x_scale = np.where(x_scale > 0, x_scale, 1.0)
   y_mean, y_scale = y[fit_rows].mean(axis=0), y[fit_rows].std(axis=0)
@@ -425,20 +412,54 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   va = windows(runs, val_rows, config.window, config.burn_in)
   if not tr or not va:
     raise errors.DataError("no training or no held-out window holds a selected sample")
-  tx, ty, tm = _pack_windows(xs, ys, fit_rows, tr, config.window)
-  vx, vy, vm = (jnp.asarray(a) for a in _pack_windows(xs, ys, val_rows, va, config.window))
-  d, a, h = x.shape[1], y.shape[1], config.hidden
-  key = jax.random.key(seed)
-  p = _init(key, d, h, a)
-  lr = config.learning_rate
+  bsz = min(config.batch, len(tr))
+  batches = _padded(_pack_windows(xs, ys, fit_rows, tr, config.window), bsz)
+  held = tuple(jnp.asarray(a) for a in _pack_windows(xs, ys, val_rows, va, config.window))
+  p = _init(jax.random.key(seed), x.shape[1], config.hidden, y.shape[1])
+  run = _adam(p, batches, bsz, held, config, rng, progress)
+  net = GRU(*(np.asarray(run["best"][k]) for k in ("w", "u", "b", "c", "v", "v0")),
+            x_mean, x_scale, y_mean, y_scale)
+  return net, TrainResult(run["steps"], run["stop"], np.array(run["hist"]),
+                          run["best_check"] * config.check, run["seconds"],
+                          run["compile_s"], tuple(val_units))
+
+
+def _held_out_units(n: int, runs, select: np.ndarray, config: GRUConfig, rng):
+  """(training rows, held-out rows, the held-out units): whole recordings when there are
+  `config.min_recordings`, else contiguous blocks of them."""
+  if len(runs) >= config.min_recordings:
+    units = list(runs)
+  else:  # too few recordings to hold whole ones out: contiguous blocks of them
+    units = [(k, min(k + config.block, hi)) for lo, hi in runs
+             for k in range(lo, hi, config.block)]
+  order = rng.permutation(len(units))
+  n_val = min(len(units) - 1, max(1, int(round(config.val_fraction * len(units)))))
+  val_units = [units[k] for k in sorted(order[:n_val])]
+  held = np.zeros(n, bool)
+  for lo, hi in val_units:
+    held[lo:hi] = True
+  fit_rows, val_rows = select & ~held, select & held
+  if not fit_rows.any() or not val_rows.any():
+    raise errors.DataError("no selected sample in the training or in the held-out part")
+  return fit_rows, val_rows, val_units
+
+
+def _padded(packed, bsz: int):
+  """The windows (x, y, mask) with the last batch filled with unscored windows."""
+  tx = packed[0]
+  pad = -(-len(tx) // bsz) * bsz - len(tx)
+  return tuple(np.concatenate([a, np.zeros((pad,) + a.shape[1:])]) for a in packed)
+
+
+def _adam(p, batches, bsz: int, held, config: GRUConfig, rng, progress) -> dict:
+  """Adam steps over the windows in batches, a new order each pass, until the step cap or
+  `patience` held-out checks without a better error; the best weights on the held-out
+  windows."""
+  tx, ty, tm = batches
+  vx, vy, vm = held
+  n_batches, lr = len(tx) // bsz, config.learning_rate
   m = jax.tree.map(jnp.zeros_like, p)
   v = jax.tree.map(jnp.zeros_like, p)
-  bsz = min(config.batch, len(tr))
-  n_batches = -(-len(tr) // bsz)
-  pad = n_batches * bsz - len(tr)  # the last batch filled with unscored windows
-  tx = np.concatenate([tx, np.zeros((pad,) + tx.shape[1:])])
-  ty = np.concatenate([ty, np.zeros((pad,) + ty.shape[1:])])
-  tm = np.concatenate([tm, np.zeros((pad,) + tm.shape[1:])])
   t0 = time.perf_counter()
   jax.block_until_ready(_adam_step(p, m, v, 1.0, lr, tx[:bsz], ty[:bsz], tm[:bsz]))
   hist = [float(_held_out_loss(p, vx, vy, vm))]
@@ -465,10 +486,7 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
     elif len(hist) - 1 - best_check >= config.patience:
       stop = mlp.Stop.VALIDATION
       break
-  seconds = time.perf_counter() - t1
   if progress and t < config.steps:
     progress(t, t)
-  net = GRU(*(np.asarray(best[k]) for k in ("w", "u", "b", "c", "v", "v0")),
-            x_mean, x_scale, y_mean, y_scale)
-  return net, TrainResult(t, stop, np.array(hist), best_check * config.check, seconds,
-                          compile_s, tuple(val_units))
+  return {"best": best, "steps": t, "stop": stop, "hist": hist, "best_check": best_check,
+          "seconds": time.perf_counter() - t1, "compile_s": compile_s}

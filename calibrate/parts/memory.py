@@ -241,61 +241,63 @@ class Memory:
       raise ValueError("the tare's detector does not fit the channels")
     return mem
 
+  def _emit_tare(self, em, raw: str) -> list[str]:
+    """The drift tare's state machine in C (as `offsets` runs it), its state in statics that
+    estimate_reset() clears."""
+    c = self.channels
+    if self.detector is None:
+      raise errors.SettingError("this estimator tares by a contact flag, which the C export "
+                                "does not read: fit it with a tare from the counts "
+                                "(--track-drift NEWTONS)")
+    tr, d = self.tare, self.detector
+    ax, hold = tr.axis, int(tr.hold)
+    inv = np.where(d.scale > 0, 1.0 / np.where(d.scale > 0, d.scale, 1.0), 0.0)
+    unit = em.array("TARE_UNIT", d.coef[:, ax] * inv)
+    dmean, ref = em.array("TARE_DET_MEAN", d.mean), em.array("TARE_REF", self.reference)
+    em.state += [f"static float tare_judge[{c}], tare_now[{c}], tare_sum[{c}];",
+                 f"static float tare_ring[{hold}][{c}];", "static int tare_run, tare_n;"]
+    em.session_resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] "
+                          f"= tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
+    em.macs += 3 * c + 2
+    return [
+        "  { /* drift tracking: unloaded while the detector's normal force stays within",
+        f"     * +-{tr.threshold:g} for {2 * hold + 1} samples; then the offset is the mean of "
+        "the", f"     * interval's counts from {hold} samples after its start to {hold} "
+        "samples back,", "     * less their level at no load */",
+        "    for (int pass = 0; pass < 2; ++pass) {",
+        f"      float fz = {literal(d.bias[ax])};",
+        f"      for (int i = 0; i < {c}; ++i) fz += {unit}[i] * ({raw}[i] - {dmean}[i] - "
+        "tare_judge[i]);",
+        f"      if (fabsf(fz) < {literal(tr.threshold)}) {{",
+        f"        float *slot = tare_ring[tare_run % {hold}];",
+        f"        if (tare_run >= {2 * hold}) {{  /* the sample {hold} back, if {hold} "
+        "into the interval */",
+        f"          for (int i = 0; i < {c}; ++i) tare_sum[i] += slot[i];",
+        "          ++tare_n;",
+        "        }",
+        f"        for (int i = 0; i < {c}; ++i) slot[i] = {raw}[i] - {ref}[i];",
+        "        ++tare_run;",
+        "        if (tare_n > 0)",
+        f"          for (int i = 0; i < {c}; ++i) tare_now[i] = tare_sum[i] / (float)tare_n;",
+        "        break;",
+        "      }",
+        "      int ended = tare_n > 0;",
+        "      tare_run = tare_n = 0;",
+        f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
+        "      if (!ended) break;",
+        "      /* an interval ended: this sample is judged again against its offset */",
+        f"      for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i];",
+        "    }",
+        "  }"]
+
   def emit_front(self, em, raw: str) -> list[str]:
     """C lines that turn this sample's inputs raw[] into the front end's features x[]
     (`calibrate.parts.memory.Memory.features`, streamed): the tare's state machine, then each
     channel's high-pass at every time constant and its first difference. The state lives
     in static variables that `estimate_reset` sets to a recording's start."""
     c, t = self.channels, len(self.taus)
-    lines = []
-    if self.tare is not None:
-      if self.detector is None:
-        raise errors.SettingError("this estimator tares by a contact flag, which the C export "
-                                  "does not read: fit it with a tare from the counts "
-                                  "(--track-drift NEWTONS)")
-      tr, d = self.tare, self.detector
-      ax, hold = tr.axis, int(tr.hold)
-      inv = np.where(d.scale > 0, 1.0 / np.where(d.scale > 0, d.scale, 1.0), 0.0)
-      unit = em.array("TARE_UNIT", d.coef[:, ax] * inv)
-      dmean, ref = em.array("TARE_DET_MEAN", d.mean), em.array("TARE_REF", self.reference)
-      em.state += [f"static float tare_judge[{c}], tare_now[{c}], tare_sum[{c}];",
-                     f"static float tare_ring[{hold}][{c}];", "static int tare_run, tare_n;"]
-      em.session_resets += [f"  for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i] "
-                              f"= tare_sum[i] = 0.0f;", "  tare_run = tare_n = 0;"]
-      em.macs += 3 * c + 2
-      lines += [
-          "  { /* drift tracking: unloaded while the detector's normal force stays within",
-          f"     * +-{tr.threshold:g} for {2 * hold + 1} samples; then the offset is the mean of "
-          "the", f"     * interval's counts from {hold} samples after its start to {hold} "
-          "samples back,", "     * less their level at no load */",
-          "    for (int pass = 0; pass < 2; ++pass) {",
-          f"      float fz = {literal(d.bias[ax])};",
-          f"      for (int i = 0; i < {c}; ++i) fz += {unit}[i] * ({raw}[i] - {dmean}[i] - "
-          "tare_judge[i]);",
-          f"      if (fabsf(fz) < {literal(tr.threshold)}) {{",
-          f"        float *slot = tare_ring[tare_run % {hold}];",
-          f"        if (tare_run >= {2 * hold}) {{  /* the sample {hold} back, if {hold} "
-          "into the interval */",
-          f"          for (int i = 0; i < {c}; ++i) tare_sum[i] += slot[i];",
-          "          ++tare_n;",
-          "        }",
-          f"        for (int i = 0; i < {c}; ++i) slot[i] = {raw}[i] - {ref}[i];",
-          "        ++tare_run;",
-          "        if (tare_n > 0)",
-          f"          for (int i = 0; i < {c}; ++i) tare_now[i] = tare_sum[i] / (float)tare_n;",
-          "        break;",
-          "      }",
-          "      int ended = tare_n > 0;",
-          "      tare_run = tare_n = 0;",
-          f"      for (int i = 0; i < {c}; ++i) tare_sum[i] = 0.0f;",
-          "      if (!ended) break;",
-          "      /* an interval ended: this sample is judged again against its offset */",
-          f"      for (int i = 0; i < {c}; ++i) tare_judge[i] = tare_now[i];",
-          "    }",
-          "  }"]
-      now = "tare_now[i]"
-    else:
-      now = "0.0f"
+    lines = self._emit_tare(em, raw) if self.tare is not None else []
+    now = "tare_now[i]" if self.tare is not None else "0.0f"
     if not (t or self.differences):  # the tared counts alone
       em.macs += c
       return lines + [f"  for (int i = 0; i < {c}; ++i) x[i] = {raw}[i] - {now};"]

@@ -464,6 +464,32 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
     snapshots: epoch caps at which to keep the best net so far (`TrainResult.snapshots`), so
       one run stands for the runs with those smaller `epochs`.
   """
+  x, y, x_val, y_val = _checked(x, y, x_val, y_val, config)
+  h, d, o = int(config.hidden), x.shape[1], y.shape[1]
+  xs, ys = MinMax.fit(x), MinMax.fit(y)
+  xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
+  theta = (nguyen_widrow(jax.random.key(seed), d, h, o) if start is None
+           else jnp.asarray(start, jnp.float64))
+  t0 = time.perf_counter()
+  step, state, train_mse, val_mse = _step_fn(config, h, xj, yj, jnp.asarray(xs.forward(x_val)),
+                                             jnp.asarray(ys.forward(y_val)),
+                                             jnp.asarray(ys._half()[0]), theta)
+  jax.block_until_ready(step(theta, state))  # compile on the start point
+  first = (float(train_mse(_sse_per_output(theta, xj, yj, h))), float(val_mse(theta)))
+  compile_s = time.perf_counter() - t0
+  run = _epochs(step, theta, state, config, progress, snapshots, first)
+
+  def net(theta):
+    w1, w2 = (np.asarray(w) for w in _unpack(theta, h, d, o))
+    return MLP(w1, w2, xs, ys)
+  return TrainResult(net(run["best"]), run["epochs"], run["stop"], np.array(run["train"]),
+                     np.array(run["val"]), run["seconds"], compile_s, run["best_epoch"],
+                     np.array(run["times"]),
+                     {cap: (net(t), e) for cap, (t, e) in run["kept"].items()})
+
+
+def _checked(x, y, x_val, y_val, config: LMConfig):
+  """The training and validation arrays, checked against each other and the network's size."""
   config.validate()
   x, y = linear.check_pair(x, y)
   x_val, y_val = linear.check_pair(x_val, y_val)
@@ -477,13 +503,13 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
         f"{len(x)} samples x {o} outputs cannot fit {n_par} network parameters")
   if len(x_val) == 0:
     raise errors.DataError("the validation set is empty: hold out some samples")
-  xs, ys = MinMax.fit(x), MinMax.fit(y)
-  xj, yj = jnp.asarray(xs.forward(x)), jnp.asarray(ys.forward(y))
-  xvj = jnp.asarray(xs.forward(x_val))
-  theta = (nguyen_widrow(jax.random.key(seed), d, h, o) if start is None
-           else jnp.asarray(start, jnp.float64))
-  half = jnp.asarray(ys._half()[0])  # output units per scaled unit
-  yvs = jnp.asarray(ys.forward(y_val))
+  return x, y, x_val, y_val
+
+
+def _step_fn(config: LMConfig, h: int, xj, yj, xvj, yvs, half, theta):
+  """(one jitted epoch -> (theta, state, [train MSE, val MSE, gradient, scaled MSE, mu]),
+  its start state, train_mse(sse), val_mse(theta)); MSEs in output units."""
+  d, o = xj.shape[1], yj.shape[1]
 
   def train_mse(sse):  # from scaled squared errors per output to MSE in output units
     return jnp.sum(sse * half**2) / yj.size
@@ -491,7 +517,6 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   def val_mse(t):
     return jnp.mean(((_forward(t, xvj, h, d, o) - yvs) * half) ** 2)
 
-  t0 = time.perf_counter()
   if config.backend == "own":
     inner = _lm_epoch_fn(h, config)
     state = (jnp.asarray(config.mu), jnp.asarray(2.0))
@@ -505,12 +530,12 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
     mu = state[0] if config.backend == "own" else jnp.asarray(0.0)
     return theta, state, jnp.stack([train_mse(sse), val_mse(theta), grad,
                                     jnp.sum(sse) / yj.size, mu])
+  return step, state, train_mse, val_mse
 
-  jax.block_until_ready(step(theta, state))  # compile on the start point
-  tr0 = float(train_mse(_sse_per_output(theta, xj, yj, h)))
-  va0 = float(val_mse(theta))
-  compile_s = time.perf_counter() - t0
-  train_hist, val_hist, times = [tr0], [va0], [0.0]
+
+def _epochs(step, theta, state, config: LMConfig, progress, snapshots, first) -> dict:
+  """Epochs until a stop (`Stop`); the best network on validation and the snapshots."""
+  train_hist, val_hist, times = [first[0]], [first[1]], [0.0]
   best, best_epoch, fails, stop = theta, 0, 0, Stop.MAX_EPOCHS
   kept = {}
   t1 = time.perf_counter()
@@ -528,26 +553,27 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
       fails += 1
     if ep in snapshots:
       kept[ep] = (best, best_epoch)
-    if config.backend == "own" and mu > config.mu_max:
-      stop = Stop.MU_MAX
-    elif fails >= config.max_fail:
-      stop = Stop.VALIDATION
-    elif grad < config.min_grad:
-      stop = Stop.MIN_GRADIENT
-    elif mse_scaled <= config.goal:
-      stop = Stop.GOAL
-    else:
-      continue
-    break
+    stop = _stop(config, mu, fails, grad, mse_scaled)
+    if stop is not None:
+      break
   seconds = time.perf_counter() - t1
   if progress and ep < config.epochs:
     progress(ep, ep)  # stopped early: the stage is over, its bar or line closes
-
-  def net(theta):
-    w1, w2 = (np.asarray(w) for w in _unpack(theta, h, d, o))
-    return MLP(w1, w2, xs, ys)
   # caps past the stop return what the stop returned
   kept.update({cap: (best, best_epoch) for cap in snapshots if cap not in kept})
-  return TrainResult(net(best), ep, stop, np.array(train_hist), np.array(val_hist),
-                     seconds, compile_s, best_epoch, np.array(times),
-                     {cap: (net(t), e) for cap, (t, e) in kept.items()})
+  return {"best": best, "epochs": ep, "stop": stop or Stop.MAX_EPOCHS, "train": train_hist,
+          "val": val_hist, "seconds": seconds, "best_epoch": best_epoch, "times": times,
+          "kept": kept}
+
+
+def _stop(config: LMConfig, mu, fails, grad, mse_scaled) -> Optional[Stop]:
+  """Why training stops after this epoch (trainlm's rules), or None."""
+  if config.backend == "own" and mu > config.mu_max:
+    return Stop.MU_MAX
+  if fails >= config.max_fail:
+    return Stop.VALIDATION
+  if grad < config.min_grad:
+    return Stop.MIN_GRADIENT
+  if mse_scaled <= config.goal:
+    return Stop.GOAL
+  return None
