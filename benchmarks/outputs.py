@@ -117,6 +117,13 @@ class Result:
   rows: tuple = ()
 
 
+def per_axis(group: str, by_axis: dict, method: str = "") -> list[Row]:
+  """The rows of {axis: {metric: value}} of one method (or of none, as a paper's or a
+  recording's ranges), each naming its axis."""
+  return [Row(group, method, ax, k, float(v)) for ax, per in by_axis.items()
+          for k, v in per.items()]
+
+
 def plain(data: Any, path: tuple[str, ...] = (), skip: tuple[tuple[str, ...], ...] = ()
           ) -> list[Row]:
   """Every number of nested dicts and lists as a row of no method and no axis: the group is

@@ -172,9 +172,10 @@ def fit_gru(x, forces, segments, chosen, names, seed, folds, config, c, kwargs):
                               "with method GRU")
   progress, groups = kwargs.pop("progress", None), kwargs.pop("groups", None)
   given = kwargs.pop("linear_fit", None)
-  for unread in ("config", "widths", "degree", "cross", "ridge", "snapshots", "val_block",
-                 "net_inputs"):
-    kwargs.pop(unread, None)
+  # what the LS stage's fit reads; the other methods' options (a network's config, the
+  # poly's degree) are not GRU's
+  kwargs = {k: v for k, v in kwargs.items()
+            if k in ("val_fraction", "outputs", "output_units", "input_units")}
   config.validate()
   how = GRURecipe(config, c, seed)
   root, res = how.fit(x, forces, segments, chosen, progress, given)

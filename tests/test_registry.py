@@ -1,6 +1,7 @@
 """Every registered benchmark through the same checks (dm_control's suite_test): those tagged
-fast run --quick twice and give the same numbers (timings aside) and a results folder whose
-metrics.csv names a method and an axis on every per-axis row."""
+fast run --quick twice and give the same numbers (timings aside), every other runs --quick
+once; each writes a results folder whose metrics.csv names a method and an axis on every
+per-axis row."""
 
 import json
 import re
@@ -44,10 +45,27 @@ def test_a_fast_benchmark_twice_gives_the_same_numbers_and_a_named_table(name, t
   changed = [(x, y) for x, y in zip(a, b) if x.value != y.value and not (
       x.value != x.value and y.value != y.value)]  # NaN is NaN
   assert not changed, changed[:3]
-  for r in tables[0]:
+  _check_named(tables[0])
+
+
+def _check_named(rows) -> None:
+  """Every per-axis score names its method and axis; no axis hides in a group or a metric."""
+  for r in rows:
     if r.metric in PER_AXIS:
       assert r.method and r.axis, r
     # a per-axis list flattened by position: its axis is an index, not a name
     assert not (r.metric.isdigit() and r.group.split("/")[-1] in PER_AXIS), r
-    # an axis spelled into a group is an axis the row does not name
-    assert not set(r.group.split("/")) & AXES, r
+    # an axis spelled into a group or a metric is an axis the row does not name
+    assert not set(r.group.split("/")) & AXES and r.metric not in AXES, r
+
+
+# the rest, once each at --quick: their tables checked as the fast ones' are
+REST = sorted(set(BENCHMARKS) - set(FAST))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", REST)
+def test_every_other_benchmark_writes_a_named_table(name, tmp_path):
+  out = tmp_path / "o"
+  assert cli.main([name, "--quick", "--no-progress", "--out", str(out)]) == 0
+  _check_named(outputs.read_rows(out / "metrics.csv"))

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from benchmarks import footpad
+from benchmarks import footpad, outputs
 from benchmarks.registry import register
 
 
@@ -53,7 +53,11 @@ def run(ctx) -> dict:
             + ", ".join(str(p) for p in written))
   out["samples"] = sum(r["samples"] for r in out["recordings"].values())
   out["effects"] = list(scenes["train"].effects)
-  return out
+  rows = [r for name, got in out["recordings"].items() for r in outputs.per_axis(
+      f"recordings/{name}", {ax: {"force_min_N": lo, "force_max_N": hi}
+                             for ax, (lo, hi) in got["force_range_N"].items()})]
+  return outputs.Result(out, tuple(rows + outputs.plain(
+      out, skip=(("recordings", "*", "force_range_N"),))))
 
 
 IN_CONTACT = 1.0  # N of normal force: below it a shear/normal ratio means nothing

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from benchmarks import footpad
+from benchmarks import footpad, outputs
 from benchmarks.registry import register
 
 # the effects whose reading depends on the path the load took
@@ -254,7 +254,7 @@ def run(ctx) -> dict:
     ctx.print(f"  {name:13s} " + "  ".join(
         f"{m} {_shear(got[m]):5.2f} (Z {got[m]['test']['Z']['nrmse_pct']:4.2f})"
         for m in ("LSANN", "LSANN+memory", "LSANN+memory/session", "GRU+memory")))
-  return {"results": {m: r["test"] for m, r in res.items() if not m.startswith("tare")},
+  data = {"results": {m: r["test"] for m, r in res.items() if not m.startswith("tare")},
           "seconds": {m: r["seconds"] for m, r in res.items() if not m.startswith("tare")},
           "c_cost": {m: r["c"] for m, r in res.items() if not m.startswith("tare")},
           "floors": {m: r["test"] for m, r in floors.items() if not m.startswith("tare")},
@@ -264,3 +264,10 @@ def run(ctx) -> dict:
           "floor_shear_nrmse_pct": float(floor_shear), "ablation": ablation,
           "seeds": seeds, "effects": list(base.effects),
           "scene": scene_lib.FootpadScene.config(base)}
+  # each per-axis score with its method and axis named (the floor: LSANN without history)
+  rows = (outputs.scored("results", data["results"]) + outputs.scored("floors", data["floors"])
+          + outputs.scored("floor", {"LSANN": data["floor"]})
+          + [r for name, got in corners.items() for r in outputs.scored(f"corners/{name}", got)]
+          + [outputs.Row("fit", m, "", "seconds", v) for m, v in data["seconds"].items()])
+  return outputs.Result(data, tuple(rows + outputs.plain(
+      data, skip=(("results",), ("floors",), ("floor",), ("corners",), ("seconds",)))))

@@ -88,5 +88,7 @@ def run(ctx) -> dict:
   rows = outputs.scored("results", {"POLY": data["results"]}) + outputs.scored(
       "paper", {"POLY": {a: {k: v for k, v in p.items() if k != "range"}
                          for a, p in data["paper"].items()}})
+  rows += outputs.per_axis("paper", {a: {"range": p["range"]} for a, p in data["paper"].items()})
+  rows += outputs.per_axis("test", {a: {"range": v} for a, v in data["test_range"].items()})
   return outputs.Result(data, tuple(rows + outputs.plain(
-      data, skip=(("results",), ("paper", "*", "median_pct"), ("paper", "*", "worst_pct")))))
+      data, skip=(("results",), ("paper",), ("test_range",)))))
