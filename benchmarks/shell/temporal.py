@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from benchmarks import shell
+from benchmarks import outputs, shell
 from benchmarks.registry import register
 
 HISTORY = ("stray_ir", "spring_hysteresis")
@@ -114,7 +114,17 @@ def run(ctx) -> dict:
     ctx.print(f"  {effect:17s} " + "  ".join(
         f"{n} {_summary(v)[0]:.2f}/{_summary(v)[1]:.2f}" for n, v in r.items()
         if not n.startswith("_")))
-  return {"results": {n: r for n, r in res.items() if not n.startswith("_")},
+  data = {"results": {n: r for n, r in res.items() if not n.startswith("_")},
           "floor": {n: r["nrmse_pct"] for n, r in floor.items() if not n.startswith("_")},
           "ablation": ablation, "fit_seconds": res["_fit_seconds"],
           "effects": list(base.effects)}
+
+  def by_axis(per_method: dict) -> dict:  # {method: {axis: nrmse}} -> {method: {axis: {..}}}
+    return {m: {ax: {"nrmse_pct": v} for ax, v in per.items()} for m, per in per_method.items()}
+  rows = (outputs.scored("results", by_axis({n: r["nrmse_pct"]
+                                             for n, r in data["results"].items()}))
+          + outputs.scored("floor", by_axis(data["floor"]))
+          + [r for e, got in ablation.items()
+             for r in outputs.scored(f"ablation/{e}", by_axis(got))])
+  return outputs.Result(data, tuple(rows + outputs.plain(
+      data, skip=(("results", "*", "nrmse_pct"), ("floor",), ("ablation",)))))
