@@ -17,12 +17,14 @@ puts a memory front end before them.
 from __future__ import annotations
 
 import dataclasses
+import functools
+import importlib
 import warnings
 from typing import Optional
 
 import numpy as np
 
-from calibrate import compose, select, splits
+from calibrate import compose, parts, select, splits
 from calibrate.fitted import CANDIDATES, Estimator, Kind
 from calibrate.info import Info, data_digest, held_out
 from calibrate.parts import linear, mlp
@@ -118,21 +120,24 @@ class NetworkRecipe:
 
 
 @dataclasses.dataclass(frozen=True)
-class GPRecipe:
-  """LS, then a Gaussian process (`calibrate.parts.gp`) on its residual (LSGP)."""
-  config: object = None  # calibrate.parts.gp.GPConfig; None: its defaults
+class ResidualRecipe:
+  """LS, then a family's part fitted on its residual by the family module's
+  `fit(x, y, config, seed)` (LSGP: `calibrate.parts.gp`)."""
+  family: str
+  config: object = None  # the family's settings; None: its defaults
   residual = True
   SEEDED = False
 
   def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
-    from calibrate.parts import gp
-    config = self.config or gp.GPConfig()
+    module = importlib.import_module(parts.FAMILIES[self.family][0])
+    config = self.config or module.Config()
     lin = given or linear.fit_linear(x, y)
     targets = y - lin.predict(x)
     tr, va = val.split(where, seed)
-    held = gp.fit(x[tr], targets[tr], config, seed)
+    held = module.fit(x[tr], targets[tr], config, seed)
     sd = np.std(targets[va] - held.predict(x[va]), axis=0)
-    return Fitted((compose.Residual(lin, gp.fit(x, targets, config, seed)),), (sd,), (None,))
+    part = module.fit(x, targets, config, seed)
+    return Fitted((compose.Residual(lin, part),), (sd,), (None,))
 
 
 def predictor(fitted: Fitted):
@@ -275,7 +280,7 @@ def check(kind, counts, forces, *, seed, ensemble, net_inputs, degree, groups, f
   counts, forces = linear.check_pair(counts, forces)
   if not (isinstance(ensemble, (int, np.integer)) and 1 <= ensemble <= 100):
     raise errors.SettingError(f"ensemble={ensemble!r} is out of range: allowed integers 1..100")
-  if ensemble > 1 and not RECIPES[kind.value].SEEDED:
+  if ensemble > 1 and not seeded(kind.value):
     raise errors.SettingError(f"ensemble={ensemble}: {kind.value} has no random start, so its "
                               f"seeds would agree; an ensemble is for LSANN and NN")
   if net_inputs is not None and not (isinstance(net_inputs, (int, np.integer))
@@ -300,24 +305,30 @@ RECIPES = {
     "POLY": LinearRecipe,  # with cross=True: PolyRecipe
     "LSANN": NetworkRecipe,
     "NN": NetworkRecipe,
-    "LSGP": GPRecipe,
+    "LSGP": functools.partial(ResidualRecipe, "gp"),
 }
 
 
-def recipe(kind: str, options: dict, settings: dict, x, y, parts):
+def seeded(kind: str) -> bool:
+  """Whether the method starts from a random draw (an ensemble of seeds means something)."""
+  how = RECIPES[kind]
+  return getattr(how, "func", how).SEEDED
+
+
+def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
   """The recipe of `kind` with the fit's `options`, its choices recorded in `settings`; a
-  POLY with cross terms and no ridge given chooses degree and ridge on the folds `parts`."""
+  POLY with cross terms and no ridge given chooses degree and ridge on the folds `cv_folds`."""
   if kind == "POLY" and options["cross"]:
     ridge, degree = options["ridge"], options["degree"]
-    if ridge is None and parts:
-      degree, lam, table = choose_poly(x, y, parts, tuple(range(1, degree + 1)))
+    if ridge is None and cv_folds:
+      degree, lam, table = choose_poly(x, y, cv_folds, tuple(range(1, degree + 1)))
       ridge = lam / len(x)
       settings["poly_cv_mse"] = table
     ridge = 0.0 if ridge is None else float(ridge)
     settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
     return PolyRecipe(degree, ridge)
-  if kind == "LSGP":
-    return GPRecipe(options["gp"])
+  if isinstance(RECIPES[kind], functools.partial):  # LS plus a family on its residual
+    return RECIPES[kind](options["gp"])
   if kind in ("LS", "POLY"):
     degree = options["degree"] if kind == "POLY" else 1
     if kind == "POLY":
@@ -391,9 +402,9 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
   for kind in (CANDIDATES if candidates is None else candidates):
     kind = Kind(kind)
     t0 = time.perf_counter()
-    seeded = {} if RECIPES[kind.value].SEEDED else {"ensemble": 1}  # LS, POLY: no seeds
+    one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
     est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
-              progress=progress, **{**kwargs, **seeded})
+              progress=progress, **{**kwargs, **one})
     table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
                          "seconds": time.perf_counter() - t0, "estimator": est}
     fitted.append(est)

@@ -41,6 +41,9 @@ class GPConfig:
     fields.check(self)
 
 
+Config = GPConfig  # the name a recipe asks a family for (`calibrate.methods.ResidualRecipe`)
+
+
 @dataclasses.dataclass(frozen=True)
 class GP(Part):
   """A fitted GP's mean: y = y_mean + y_scale * sum_m alpha[m] exp(-|s - points[m]|^2 / 2),
