@@ -7,6 +7,12 @@
 * NN: the same network fitted to F from the six counts.
 * GRU: LS, then a small recurrent network (`calibrate.parts.gru`) fitted to the residual from
   the counts' past: a temporal estimator, fitted by `fit_temporal` on whole recordings.
+* LSGP: LS, then a Gaussian process (`calibrate.parts.gp`) fitted to the residual.
+* AUTO: per output, the candidate with the lowest held-out error (`fit_auto`).
+
+This module is the callers' face: the fits are `calibrate.methods` (recipes, one selection
+loop in `calibrate.select`) and `calibrate.temporal_fit`; the fitted type is
+`calibrate.fitted.Estimator`, a tree of parts (`calibrate.parts`, `calibrate.compose`).
 """
 
 from __future__ import annotations

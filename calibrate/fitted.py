@@ -27,8 +27,8 @@ class Kind(enum.Enum):
   LSANN = "LSANN"
   NN = "NN"
   GRU = "GRU"  # LS plus a recurrent network on the residual (`fit_temporal` only)
-  AUTO = "AUTO"
-  LSGP = "LSGP"  # LS plus a Gaussian process on its residual  # per output, the candidate with the lowest held-out error (`fit_auto`)
+  AUTO = "AUTO"  # per output, the candidate with the lowest held-out error (`fit_auto`)
+  LSGP = "LSGP"  # LS plus a Gaussian process on its residual (`calibrate.parts.gp`)
 
 
 # the methods `fit_auto` chooses among, simplest first
