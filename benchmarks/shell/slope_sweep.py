@@ -205,9 +205,11 @@ def run(ctx):
           "failures": [dataclasses.asdict(f) for f in failures], "speed": speed}
   rows = [r for i, g in enumerate(data["table"]) for r in _axis_rows(
       f"design {i + 1} " + ", ".join(f"{n}={v:g}" for n, v in g["design"].items()), g)]
+  rows += [r for i, g in enumerate(unranked) for r in _axis_rows(
+      f"unranked {i + 1} " + ", ".join(f"{n}={v:g}" for n, v in g["design"].items()), g)]
   rows += _axis_rows("board", board_row) + _axis_rows("best", best)
-  skip = tuple(path + (k,) for path in (("table", "*"), ("board",), ("best",))
-               for k in PER_AXIS)
+  skip = tuple(path + (k,) for path in (("table", "*"), ("unranked", "*"), ("board",),
+                                        ("best",)) for k in PER_AXIS)
   return outputs.Result(data, tuple(rows + outputs.plain(data, skip=skip)))
 
 
