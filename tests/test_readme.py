@@ -31,7 +31,7 @@ def _commands(body: str):
 def test_readme_opens_with_the_two_commands():
   first = [body for lang, body in _blocks()][:2]
   assert first[0].strip() == "pip install -e . && python -m benchmarks.run asterisk_path"
-  assert first[1].strip() == "pip install -e '.[test]' && python3 -m pytest -q tests"
+  assert first[1].strip() == "pip install -e '.[test]' && python3 -m pytest -q -n auto tests"
 
 
 def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
