@@ -174,6 +174,7 @@ def footpad_csv(tmp_path_factory, quick_footpad):
       np.arange(len(test)) % 10 == 0)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 @pytest.mark.parametrize("method, extra", [("ls", []), ("nn", ["--epochs", "5", "--hidden", "5"])])
 def test_csv_round_trip_gives_the_python_paths_metrics(footpad_csv, tmp_path, method, extra,
                                                        capsys):
@@ -237,6 +238,7 @@ def _auto(counts, forces):
 @pytest.mark.parametrize("kind, ensemble, cross", [("AUTO", 1, False),
     ("LS", 1, False), ("POLY", 1, False), ("POLY", 1, True), ("LSANN", 1, False),
     ("NN", 2, False), ("LSANN", 3, False)])
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cross):
   counts, forces = _data()
   est = _auto(counts, forces) if kind == "AUTO" else estimators.fit(

@@ -5,6 +5,7 @@ runs on both rigs) and the effect ablation."""
 import json
 
 import numpy as np
+import pytest
 
 from benchmarks import run as cli
 from benchmarks.calibrators import accuracy_vs_time as avt
@@ -12,6 +13,7 @@ from calibrate import estimators
 from calibrate.parts import mlp
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_a_snapshot_at_a_cap_is_the_run_capped_there():
   rng = np.random.default_rng(0)
   x = rng.uniform(-1, 1, (2000, 4))
@@ -43,6 +45,7 @@ def test_time_stops_paying_where_no_later_point_gains_ten_percent_a_doubling():
   assert avt.stops_paying([_p("a", 1, 10), _p("b", 2, 5)])["calibrator"] == "b"
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_command_gives_points_and_a_front_for_both_sensors(tmp_path):
   args = ["accuracy_vs_time", "--quick", "--no-progress", "--out", str(tmp_path),
           "--set", "hidden=3", "--set", "epochs=2,6", "--set", "dampings=trainlm",
@@ -62,6 +65,7 @@ def test_the_command_gives_points_and_a_front_for_both_sensors(tmp_path):
   assert shell["POLY3"] < 0.5 * shell["POLY1"]  # the paper's cubic against a linear map
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_effect_ablation_switches_each_shell_effect_on_alone_then_all(tmp_path):
   from sim.shell import effects
   args = ["effect_ablation", "--quick", "--no-progress", "--out", str(tmp_path),

@@ -165,6 +165,7 @@ def test_blocks_split_holds_out_whole_contiguous_blocks():
     splits.validation(100, 0.15, seed=0, block=80)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_fits_on_several_processes_equal_serial_ones_to_the_bit():
   """`calibrate.parallel.fit_all`: the same jobs on two workers and one after another in
   one worker give the same weights, bit for bit (each fit its own seed, one thread each)."""

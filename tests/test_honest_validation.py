@@ -151,6 +151,7 @@ def test_the_conformal_half_width_is_the_order_statistic_it_names():
   np.testing.assert_allclose(info.half_width(0.95), want, atol=2e-3)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_lsann_keeps_its_ls_stage_where_its_network_does_not_help():
   """The truth is linear in the inputs: any residual network only fits noise, so on held-out
   recordings it loses to its LS stage, which then stands alone on those outputs."""
@@ -227,6 +228,7 @@ def _mixed(n=3000, seed=0):
   return x, y
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_path):
   x, y = _mixed(1500)
   g = splits.groups(len(x), "blocks", block=100)
@@ -251,6 +253,7 @@ def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_
     np.testing.assert_array_equal(est.predict(x[:50])[:, j], part.predict(x[:50])[:, j])
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path, capsys):
   rng = np.random.default_rng(9)
   names = ["time", "s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
@@ -281,6 +284,7 @@ def _static_states(states=48, per=150, seed=0):
   return x, y, np.repeat(np.arange(states), per)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_a_network_on_few_load_states_is_warned_about_with_the_count():
   x, y, _ = _static_states()
   with pytest.warns(estimators.FewStatesWarning, match=r"only \d+ distinct load states"):
@@ -291,6 +295,7 @@ def test_a_network_on_few_load_states_is_warned_about_with_the_count():
     estimators.fit("NN", x2, x2[:, :3] @ np.eye(3), config=mlp.LMConfig(hidden=10, epochs=3))
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_width_kept_is_the_one_with_the_lowest_held_out_error():
   x, y, rec = _static_states()
   with warnings.catch_warnings():

@@ -24,6 +24,7 @@ def _teacher(n=400, d=3, h=4, o=2, seed=0):
   return x, np.asarray(mlp._forward(theta, jnp.asarray(x), h, d, o)), theta
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_normal_equations_match_jacfwd():
   x, y, theta = _teacher()
   y = y + 0.05 * np.random.default_rng(1).standard_normal(y.shape)

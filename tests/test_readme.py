@@ -9,6 +9,7 @@ import pathlib
 import re
 import shlex
 
+import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
@@ -34,6 +35,7 @@ def test_readme_opens_with_the_two_commands():
   assert first[1].strip() == "pip install -e '.[test]' && python3 -m pytest -q -n auto tests"
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
   from benchmarks import run
   from calibrate import __main__ as calibrate_cli

@@ -49,6 +49,7 @@ def test_truth_and_summed_element_forces_are_both_recorded(recording):
   assert recording.meta["seed"] == 5 and "mujoco" in recording.meta["versions"]
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_cache_round_trip(tmp_path, monkeypatch):
   monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
   first, timing = footpad.generate(SMALL)

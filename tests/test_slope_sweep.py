@@ -27,6 +27,7 @@ def sweep(tmp_path_factory):
   return json.loads((out / "metrics.json").read_text())
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_rank_column_reproduces_the_known_cases(sweep):
   rank = {(r["design"]["slope_x"], r["design"]["slope_y"]): r["rank"]
           for r in sweep["table"] + sweep["unranked"]}
@@ -35,6 +36,7 @@ def test_the_rank_column_reproduces_the_known_cases(sweep):
   assert all(v == 6 for (x, y), v in rank.items() if x > 0 and y > 0)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_condition_falls_steeply_then_flattens(sweep):
   cond = {(r["design"]["slope_x"], r["design"]["slope_y"]): r["condition"]
           for r in sweep["table"] + sweep["unranked"]}
@@ -43,6 +45,7 @@ def test_the_condition_falls_steeply_then_flattens(sweep):
   assert abs(diag[3] / diag[2] - 1) < 0.3  # then flat
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_best_design_sees_every_axis_inside_its_window(sweep):
   best = sweep["best"]
   assert best["rank"] == 6 and best["fom"] <= sweep["board"]["fom"]
@@ -50,12 +53,14 @@ def test_the_best_design_sees_every_axis_inside_its_window(sweep):
   assert max(best["out_of_window"]) < 0.05
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_gradient_search_lands_within_one_grid_cell_of_the_grids_best(sweep):
   s = sweep["search"]
   assert all(v <= 1.0 for v in s["cells_from_grid_best"].values()), s
   assert s["objective"] <= s["grid_best_objective"] + 1e-9
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_static_and_full_paths_rank_designs_alike(sweep):
   assert len(sweep["confirmed"]) >= 3
   assert sweep["spearman_static_vs_full"] > 0.5
@@ -95,6 +100,7 @@ def test_window_range_is_where_the_first_sensor_leaves_the_window():
   assert np.all(linear >= 0.99 * exact) and np.all(linear <= 1.4 * exact), linear / exact
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_jax_objective_equals_the_numpy_one_and_its_gradient_the_differences():
   import jax
   names = ("slope_x", "slope_y", "gap")
@@ -146,6 +152,7 @@ def test_bad_sweeps_are_refused_before_running(setting, message, capsys):
   assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_an_unreachable_dask_address_is_one_line(capsys):
   pytest.importorskip("distributed")
   args = ["reflector_slope_sweep", "--quick", "--no-progress", "--executor", "dask",

@@ -235,6 +235,7 @@ def test_the_c_export_refuses_a_tare_by_contact_flag(tmp_path):
   assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_command_line_fits_and_uses_a_front_end(tmp_path, capsys):
   """`python -m calibrate fit --history` on the shipped example (one recording with a time
   column): the estimator keeps its front end through evaluate and predict, lowers the shear
@@ -304,6 +305,7 @@ def _hysteretic(rng, segments=10, n=1500):
   return np.concatenate(xs), np.concatenate(ys), np.concatenate(labels)
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_recurrent_estimator_learns_a_memory_the_static_map_cannot():
   """On held-out recordings of a nonlinear system with a relaxation, LS on the counts alone
   is off by ~17-20 % of each force's spread; LS plus the GRU's residual lowers that by a
@@ -358,6 +360,7 @@ int main(int argc, char **argv) {
 """
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 @pytest.mark.parametrize("fixed", [False, True])
 def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, fixed):
