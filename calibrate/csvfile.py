@@ -47,7 +47,8 @@ class Table:
 
   def columns(self, patterns: Sequence[str], what: str) -> list[int]:
     """Indices of the columns named by `patterns` (names or shell-style globs such as
-    `p*`), in the order given.
+    `p*`), in the order given. A pattern that is a column's whole name is that column, so
+    names holding glob characters (`F_x [N]`, with its unit) are read as they are.
 
     Raises:
       errors.SettingError naming `what` (e.g. "--inputs") and the columns the file has.
@@ -57,7 +58,8 @@ class Table:
                                 f"{self.path}'s columns ({', '.join(self.names)})")
     out = []
     for pattern in patterns:
-      hits = [i for i, n in enumerate(self.names) if fnmatch.fnmatchcase(n, pattern)]
+      hits = [self.names.index(pattern)] if pattern in self.names else \
+          [i for i, n in enumerate(self.names) if fnmatch.fnmatchcase(n, pattern)]
       if not hits:
         raise errors.SettingError(
             f"{what}: {self.path} has no column {pattern!r}; its columns are "

@@ -182,3 +182,22 @@ def two_streams(t: np.ndarray, x: np.ndarray, y: np.ndarray, x_names, y_names, *
                         np.column_stack([t[::step], xs]), f"{name}_sensor.csv"),
           csvfile.Table(("time",) + tuple(y_names), ("s",) + y_units,
                         np.column_stack([tr + lag, ref]), f"{name}_reference.csv"))
+
+
+# a pair's estimated lag this far from the others' median (at least; else 5 robust standard
+# deviations of theirs) is reported: one logger's lag does not change between recordings,
+# so such an estimate has locked onto another event. 10 ms: a few samples of a 250-1000 Hz
+# reference, within which estimates scatter (`raw_streams`: within one sensor period)
+LAG_SPREAD_FLOOR = 0.010
+
+
+def outlying_lags(lags) -> list[int]:
+  """Indices of the estimated lags (s) far from the others' median: beyond 5 robust
+  standard deviations (1.4826 x the median absolute deviation) and `LAG_SPREAD_FLOOR`.
+  Three lags at least; fewer cannot tell which one is wrong."""
+  lags = np.asarray(lags, float)
+  if len(lags) < 3:
+    return []
+  mid = np.median(lags)
+  spread = max(5 * 1.4826 * np.median(np.abs(lags - mid)), LAG_SPREAD_FLOOR)
+  return [int(k) for k in np.flatnonzero(np.abs(lags - mid) > spread)]

@@ -66,6 +66,27 @@ def test_units_row_and_globs_are_read(tmp_path):
   np.testing.assert_array_equal(t.data, [[0, 1, 2, 3], [1, 4, 5, 6]])
 
 
+def test_names_holding_glob_characters_are_read_as_they_are(tmp_path, capsys):
+  """Column names with their units in brackets (`X0 [uT]`, `F_x [N]`): a whole name is that
+  column, in fit's options and in the estimator's own names when it predicts and evaluates
+  on the same file (a glob would read `[N]` as one character of a set, and match nothing)."""
+  counts, forces = _data(300)
+  names = [f"X{i} [uT]" for i in range(6)] + ["F_x [N]", "F_y [N]", "F_z [N]"]
+  path = csvfile.write(tmp_path / "r.csv", names, np.column_stack([counts, forces]))
+  t = csvfile.read(path)
+  assert t.columns(["F_x [N]"], "--targets") == [6] and t.columns(["X*"], "x") == list(range(6))
+  est = tmp_path / "e.npz"
+  assert cli.main(["fit", "--csv", str(path), "--inputs", "X*", "--targets", "F_x [N],F_y [N]",
+                   "--method", "ls", "--folds", "0", "--out", str(est)]) == 0
+  assert cli.main(["predict", str(est), "--csv", str(path), "--out",
+                   str(tmp_path / "p.csv")]) == 0
+  assert cli.main(["evaluate", str(est), "--csv", str(path), "--out",
+                   str(tmp_path / "ev")]) == 0
+  got = csvfile.read(tmp_path / "p.csv")
+  assert got.names == ("F_x [N]", "F_y [N]")
+  capsys.readouterr()
+
+
 def test_quoted_numbers_and_blank_lines_are_read(tmp_path):
   path = _csv(tmp_path, 'time,p1,Fx\n\n"0","1.5",2\n# c\n1,2,"-3e2"\n')
   np.testing.assert_array_equal(csvfile.read(path).data, [[0, 1.5, 2], [1, 2, -300]])

@@ -241,3 +241,24 @@ def test_the_c_export_tares_as_predict_does(tmp_path, capsys):
   got = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
   scale = np.abs(want).max(axis=0)
   assert np.max(np.abs(got - want) / scale) < 1e-5
+
+
+def test_a_pair_whose_estimated_lag_lies_far_from_the_others_is_reported(tmp_path, capsys):
+  """One logger's lag does not change between recordings: of four pairs, the one whose
+  reference was stamped 0.4 s late instead of LAG is named in a warning with the others'
+  median to give as --lag; the three that agree are not."""
+  pairs = []
+  for k in range(4):
+    sensor, reference = _streams(seed=20 + k, seconds=20.0, mix_seed=5)
+    if k == 3:
+      reference.data[:, 0] += 0.4 - LAG
+    pairs += [tmp_path / f"s{k}.csv", tmp_path / f"r{k}.csv"]
+    _write(pairs[-2], sensor)
+    _write(pairs[-1], reference)
+  assert cli.main(["merge", *map(str, pairs), "--out", str(tmp_path / "m")]) == 0
+  out = capsys.readouterr().out
+  warned = [line for line in out.splitlines() if line.startswith("warning:")]
+  assert len(warned) == 1 and "s3.csv" in warned[0] and "--lag 0.02" in warned[0], out
+  assert "(1 far from the others: see the warnings)" in out
+  assert streams.outlying_lags([0.025, 0.026, 0.024]) == []
+  assert streams.outlying_lags([-0.014, -0.036, -0.025, 0.918, -0.216, -0.02]) == [3, 4]

@@ -69,9 +69,19 @@ def run(args) -> int:
     print(m.describe(str(a)))
     done.append(m)
   lags = [m.lag * 1e3 for m in done]
+  estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
+  far = [estimated[k] for k in streams.outlying_lags([done[k].lag for k in estimated])]
+  for k in far:
+    others = np.median([lags[j] for j in estimated if j not in far])
+    print(f"warning: {pairs[k][0]}: its lag {lags[k]:.1f} ms lies far from the other pairs' "
+          f"(median {others:.1f} ms): one logger's lag does not change between recordings, "
+          f"so the estimate may have locked onto another event; check the pair, or give "
+          f"--lag {others / 1e3:.4f}")
   print(f"merged {len(done)} pair(s): {sum(len(m.data) for m in done):,} rows kept, "
         f"{sum(m.outside for m in done):,} outside the overlap and "
         f"{sum(m.in_gaps for m in done):,} in reference gaps dropped, lag "
         + (f"{lags[0]:.1f} ms" if len(set(np.round(lags, 1))) == 1 else
-           f"{min(lags):.1f}-{max(lags):.1f} ms") + f"; wrote {out}/")
+           f"{min(lags):.1f} to {max(lags):.1f} ms")
+        + (f" ({len(far)} far from the others: see the warnings)" if far else "")
+        + f"; wrote {out}/")
   return 0
