@@ -19,7 +19,7 @@ import numpy as np
 
 from util import errors
 
-GAP_PERIODS = 3.0  # default max_gap: this many median reference periods
+GAP_PERIODS = 3.0  # default max_gap: this many mean reference periods (`sample_period`)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,6 +100,18 @@ def estimate_lag(t_sensor: np.ndarray, sensor: np.ndarray, t_ref: np.ndarray,
   return float((lags[i] + shift) * dt)
 
 
+def sample_period(t: np.ndarray) -> float:
+  """A log's sampling period, s: the mean step with its longest 1 % left out (dropouts).
+  The mean, not the median: a logger that writes its samples in packets (three stamps 0.2
+  ms apart, then 11 ms) has a median step of 0.2 ms, and a gap rule of a few medians calls
+  every packet's pause a gap (a 210-330 Hz irregular F/T log lost 49 % of its sensor's rows
+  to the median rule, as a user reported)."""
+  steps = np.diff(np.asarray(t, float))
+  if not len(steps):
+    return float("nan")
+  return float(np.mean(steps[steps <= np.quantile(steps, 0.99)]))
+
+
 def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[float] = None,
           time_column: str = "time", max_lag: float = 1.0) -> Merged:
   """The reference's columns on the sensor's samples (two `csvfile.Table`s).
@@ -107,7 +119,7 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
   Args:
     lag: seconds the reference stamps an event after the sensor (None: `estimate_lag`).
     max_gap: the longest reference gap interpolated across, seconds (None: `GAP_PERIODS`
-      median reference periods).
+      reference periods, `sample_period`).
     max_lag: the largest lag `estimate_lag` considers, seconds.
   Raises:
     errors.DataError when a file has no time column, the two share a column name, or
@@ -125,7 +137,7 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
     raise errors.DataError(f"{sensor.path} and {reference.path} both have column(s) "
                            f"{', '.join(sorted(shared))}: rename one side's")
   if max_gap is None:
-    max_gap = GAP_PERIODS * float(np.median(np.diff(tr)))
+    max_gap = GAP_PERIODS * sample_period(tr)
   if not max_gap > 0:
     raise errors.SettingError(f"--max-gap {max_gap!r} is out of range: allowed seconds > 0")
   estimated = None  # estimated either way: printed beside a lag the user gives

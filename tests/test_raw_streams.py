@@ -262,3 +262,21 @@ def test_a_pair_whose_estimated_lag_lies_far_from_the_others_is_reported(tmp_pat
   assert "(1 far from the others: see the warnings)" in out
   assert streams.outlying_lags([0.025, 0.026, 0.024]) == []
   assert streams.outlying_lags([-0.014, -0.036, -0.025, 0.918, -0.216, -0.02]) == [3, 4]
+
+
+def test_a_reference_logged_in_packets_loses_no_rows_to_the_default_gap_rule(tmp_path):
+  """A reference that writes its samples three at a time (0.2 ms apart, then an 11 ms
+  pause; 263 Hz on average): its median step is 0.2 ms, its mean 3.8 ms. The default gap
+  rule (3 sampling periods, `streams.sample_period`) keeps every row between packets, and
+  still drops the rows of a real 0.3 s dropout."""
+  sensor, reference = _streams(seed=3, seconds=20.0)
+  steps = np.tile([0.0002, 0.0002, 0.011], 3000)
+  tr = 0.1 + np.concatenate([[0.0], np.cumsum(steps)])
+  tr[tr > 10.0] += 0.3  # a dropout of the reference at 10 s
+  ref = csvfile.Table(reference.names, reference.units,
+                      np.column_stack([tr, _force(tr - LAG)]), "reference.csv")
+  assert np.median(np.diff(tr)) == pytest.approx(0.0002)
+  m = streams.merge(sensor, ref, lag=LAG)
+  dropout = int(np.sum((sensor.data[:, 0] > 10.0 - LAG) & (sensor.data[:, 0] < 10.3 - LAG)))
+  assert 0 < m.in_gaps <= dropout + 1, (m.in_gaps, dropout)
+  assert m.max_gap == pytest.approx(3 * 0.0038, rel=0.05)

@@ -13,6 +13,9 @@ from calibrate.cli import common
 from util import cli, errors, files
 
 
+GAP_WARNING = 0.10  # a share of a pair's rows dropped in reference gaps that merge warns of
+
+
 def add_parser(sub) -> None:
   p = sub.add_parser("merge", help="two raw streams (sensor, reference) into one recording",
                      formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -28,7 +31,8 @@ def add_parser(sub) -> None:
                  help="the largest lag the estimate considers, seconds (default 1)")
   p.add_argument("--max-gap", type=float, default=None, metavar="SECONDS",
                  help="the longest reference gap interpolated across (default "
-                      f"{streams.GAP_PERIODS:g} median reference periods)")
+                      f"{streams.GAP_PERIODS:g} mean reference periods, its longest 1 %% of steps "
+                      "left out)")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   common.cleaning_args(p)
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("merged"),
@@ -67,6 +71,11 @@ def run(args) -> int:
                       args.max_lag)
     csvfile.write(out / f"{stem}.csv", m.names, m.data, m.units)
     print(m.describe(str(a)))
+    share = m.in_gaps / max(1, len(m.data) + m.in_gaps)
+    if share > GAP_WARNING:
+      print(f"warning: {a}: {share:.0%} of its rows inside the reference's span fall in "
+            f"gaps over {m.max_gap * 1e3:.1f} ms and were dropped: if the reference just "
+            f"logs irregularly, give a longer --max-gap")
     done.append(m)
   lags = [m.lag * 1e3 for m in done]
   estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
