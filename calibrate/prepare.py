@@ -88,7 +88,10 @@ class Steps:
   """The steps asked for (the command's options).
 
   Attributes:
-    unwrap_bits: the register width whose wrap-around is undone (None: only reported).
+    unwrap_bits: the register width whose wrap-around is undone (None: only reported); the
+      period is 2**bits times each channel's smallest step (`lsb`).
+    unwrap_period: the wrap-around's period itself, in the inputs' units, for channels
+      whose values are not on one grid of their least significant bit (scaled, filtered).
     rails: (lo, hi) the ADC's rails, in the inputs' units (None: found per recording).
     drop_rails: remove rows with an input at a rail.
     tare: the tare rule (None: no tare).
@@ -97,8 +100,15 @@ class Steps:
   rails: Optional[tuple[float, float]] = None
   drop_rails: bool = False
   tare: Optional[Tare] = None
+  unwrap_period: Optional[float] = None
 
   def __post_init__(self):
+    if self.unwrap_bits is not None and self.unwrap_period is not None:
+      raise errors.SettingError("--unwrap and --unwrap-period: give one of them")
+    if self.unwrap_period is not None and not (np.isfinite(self.unwrap_period)
+                                               and self.unwrap_period > 0):
+      raise errors.SettingError(f"--unwrap-period {self.unwrap_period!r} is out of range: "
+                                f"allowed > 0, in the inputs' units")
     if self.unwrap_bits is not None and not 2 <= self.unwrap_bits <= 64:
       raise errors.SettingError(f"--unwrap {self.unwrap_bits!r} is out of range: allowed "
                                 f"register widths 2 to 64 bits")
@@ -192,6 +202,32 @@ def _where(table, rows: Sequence[int]) -> str:
   return f"line {shown}{more}"
 
 
+def _periods(tables, inputs, steps: Steps) -> np.ndarray:
+  """(C,) the wrap-around periods: given, or 2**bits times each channel's smallest step.
+  A period no longer than the channel's observed range cannot be its register's (a wrapped
+  register's values stay within one period): its smallest step is then no bit (values off a
+  grid: scaled, filtered, noisy), and unwrapping would undo noise; refused, naming it."""
+  every = np.vstack([t.data[:, inputs] for t in tables])
+  names = tables[0].names
+  out = []
+  for c in range(len(inputs)):
+    period = steps.unwrap_period if steps.unwrap_period is not None else \
+        2.0 ** steps.unwrap_bits * lsb(every[:, c])
+    span = float(np.ptp(every[:, c]))
+    if period <= span:
+      how = (f"--unwrap-period {period:g}" if steps.unwrap_period is not None else
+             f"--unwrap {steps.unwrap_bits} makes its period {period:g} (2**"
+             f"{steps.unwrap_bits} x its smallest step {lsb(every[:, c]):g}), which")
+      raise errors.SettingError(
+          f"{names[inputs[c]]}: {how} is no longer than the range its values span "
+          f"({span:g}), so it is not the register's period"
+          + ("" if steps.unwrap_period is not None else
+             ": its values are not on one grid of a bit; give the period itself "
+             "(--unwrap-period, in the inputs' units)"))
+    out.append(period)
+  return np.array(out)
+
+
 def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
   """What the estimator keeps of the preparation, for `predict`, `evaluate` and the C."""
   raw = np.vstack([t.data[:, inputs] for t in tables])
@@ -232,10 +268,8 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
   names = tables[0].names
   said, xs, ys, recs, kept = [], [], [], [], []
   start = 0
-  if steps.unwrap_bits is not None and periods is None:
-    every = np.vstack([t.data[:, inputs] for t in tables])
-    periods = np.array([2.0 ** steps.unwrap_bits * lsb(every[:, c])
-                        for c in range(len(inputs))])
+  if (steps.unwrap_bits is not None or steps.unwrap_period is not None) and periods is None:
+    periods = _periods(tables, inputs, steps)
   for k, table in enumerate(tables):
     x = table.data[:, inputs]
     y = None if targets is None else table.data[:, targets]

@@ -280,3 +280,27 @@ def test_a_reference_logged_in_packets_loses_no_rows_to_the_default_gap_rule(tmp
   dropout = int(np.sum((sensor.data[:, 0] > 10.0 - LAG) & (sensor.data[:, 0] < 10.3 - LAG)))
   assert 0 < m.in_gaps <= dropout + 1, (m.in_gaps, dropout)
   assert m.max_gap == pytest.approx(3 * 0.0038, rel=0.05)
+
+
+def test_a_bit_inferred_from_values_off_its_grid_is_refused_and_the_period_can_be_given():
+  """A magnetometer read out scaled (values off the 0.3 uT grid: a smallest step of about
+  0.002 uT, so 2**16 of them is 131 uT against a 19,660 uT register): `--unwrap 16` would
+  'undo' noise steps. The period that is no longer than the channel's range is refused,
+  naming the channel; `--unwrap-period` gives the register's period itself, and undoes a
+  planted wrap exactly."""
+  rng = np.random.default_rng(8)
+  period = 2 ** 16 * 0.3
+  true = np.cumsum(rng.normal(0, 20, (3000, 2)), axis=0) * 1.0037  # scaled: off-grid
+  true += period / 2 - true[1500]  # channel 1 crosses the register's top there
+  true[:, 1] += np.linspace(0, period, 3000)
+  wrapped = np.mod(true, period)  # as the register holds them
+  table = csvfile.Table(("X0 [uT]", "X1 [uT]"), ("uT", "uT"), wrapped, "mag.csv")
+  with pytest.raises(errors.SettingError, match=r"X0 \[uT\]: --unwrap 16 makes its period .* "
+                                                r"no longer than the range .*--unwrap-period"):
+    prepare.apply([table], [0, 1], None, prepare.Steps(unwrap_bits=16))
+  ready = prepare.apply([table], [0, 1], None, prepare.Steps(unwrap_period=period))
+  assert np.sum(np.abs(np.diff(wrapped[:, 1])) > period / 2) >= 1  # a wrap is planted
+  np.testing.assert_allclose(ready.x - ready.x[0], true - true[0], atol=1e-9 * period)
+  assert ready.record["unwrap_periods"] == [period, period]
+  with pytest.raises(errors.SettingError, match="give one of them"):
+    prepare.Steps(unwrap_bits=16, unwrap_period=period)

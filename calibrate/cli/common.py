@@ -90,6 +90,9 @@ def preparation_args(p: argparse.ArgumentParser) -> None:
                  help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
                       "the range, which are reported either way): +-2**BITS times the "
                       "channel's smallest step")
+  p.add_argument("--unwrap-period", type=float, default=None, metavar="VALUE",
+                 help="as --unwrap, the period given in the inputs' units (for values not "
+                      "on one grid of their bit: scaled or filtered registers)")
 
 
 def training_args(p: argparse.ArgumentParser) -> None:
@@ -208,7 +211,7 @@ def preparation(args):
     if args.tare is not None and args.tare_column is not None:
       raise errors.SettingError("--tare and --tare-column: give one of them")
     tare = prepare.Tare(args.tare, args.tare_column, args.time_column)
-  return prepare.Steps(args.unwrap, args.rails, args.drop_rails, tare)
+  return prepare.Steps(args.unwrap, args.rails, args.drop_rails, tare, args.unwrap_period)
 
 
 def training_data(args):
