@@ -252,6 +252,9 @@ def test_the_command_line_fits_and_uses_a_front_end(tmp_path, capsys):
   for name, extra in (("static", []), ("memory", ["--history", "0.1,1"])):
     est = tmp_path / f"{name}.npz"
     assert cli.main(["fit", *common, *extra, "--out", str(est)]) == 0
+    said = capsys.readouterr().out
+    assert ("memory front end: high-pass time constants 0.1, 1 s, first differences kept"
+            in said) == (name == "memory"), said
     assert cli.main(["evaluate", str(est), "--csv", str(examples / "test.csv"), "--out",
                      str(tmp_path / name)]) == 0
     metrics = json.loads((tmp_path / name / "metrics.json").read_text())

@@ -84,6 +84,8 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
         f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
   v = info.validation
   print(f"validation: {groups.describe()}")
+  if est.memory is not None:
+    print(memory_line(est.memory, args.history == "auto"))
   if "width_cv" in info.settings:
     table = info.settings["width_cv"]
     print(f"network width {info.settings['config']['hidden']} (held-out error, each output's "
@@ -132,3 +134,13 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
   elif stops:
     print("training stopped: " + "; ".join(
         f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
+
+
+def memory_line(mem, chosen: bool) -> str:
+  """What the temporal front end reads: its time constants (said when they were chosen on
+  held-out recordings), the first differences, the drift tare."""
+  taus = ", ".join(f"{t:g}" for t in mem.taus) or "none"
+  return (f"memory front end: high-pass time constants {taus} s"
+          + (" (chosen on held-out recordings)" if chosen else "")
+          + f", first differences {'kept' if mem.differences else 'not kept'}"
+          + (f", drift tare below {mem.tare.threshold:g} N" if mem.tare is not None else ""))
