@@ -201,19 +201,32 @@ def choose_width(recipe: NetworkRecipe, x, y, groups, folds, val, seed, widths):
 def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
   """(degree, ridge, table) of the polynomial with cross terms with the lowest grouped
   cross-validated mean squared error over `parts` ((train, held-out) pairs): every degree in
-  `degrees`, ridge weights `poly.RIDGES` x the training samples. The SVD of each fold is
-  shared by its ridge weights."""
+  `degrees`, ridge weights `poly.RIDGES` x the training samples, and past the largest of
+  them while the held-out error still falls there (ten times more each step, up to
+  `RIDGE_STEPS` steps). The SVD of each fold is shared by its ridge weights."""
   table = {}
   for deg in degrees:
-    def fold(tr, va, deg=deg):
-      f = poly_lib.factor(x[tr], y[tr], deg, True, 1e-10)
-      return [f.solve(r * len(tr)).predict(x[va]) for r in poly_lib.RIDGES]
-    sse = select.fold_sums(select.held_out(fold, y, parts, len(poly_lib.RIDGES)), parts)
-    for k, r in enumerate(poly_lib.RIDGES):
-      table[(deg, r)] = float(sse[k] / len(y))
+    ridges = list(poly_lib.RIDGES)
+    sse = _poly_sse(x, y, parts, deg, ridges)
+    while np.argmin(sse) == len(sse) - 1 and len(ridges) < len(poly_lib.RIDGES) + RIDGE_STEPS:
+      ridges.append(ridges[-1] * 10)  # the error still falls at the grid's edge
+      sse = np.append(sse, _poly_sse(x, y, parts, deg, ridges[-1:]))
+    for r, e in zip(ridges, sse):
+      table[(deg, r)] = float(e / len(y))
   deg, r = select.lowest(table)
   return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
                            for (d, r), v in table.items()}
+
+
+RIDGE_STEPS = 6  # the ridge weights tried past the grid: up to 1e6 x the samples
+
+
+def _poly_sse(x, y, parts, deg, ridges) -> np.ndarray:
+  """(R,) the held-out sum of squared errors at each ridge weight (x the training samples)."""
+  def fold(tr, va):
+    f = poly_lib.factor(x[tr], y[tr], deg, True, 1e-10)
+    return [f.solve(r * len(tr)).predict(x[va]) for r in ridges]
+  return select.fold_sums(select.held_out(fold, y, parts, len(ridges)), parts)
 
 
 class FewStatesWarning(UserWarning):

@@ -70,3 +70,21 @@ def test_cross_terms_beat_the_per_channel_cubic_on_coupled_channels_held_out():
   channel = estimators.fit("POLY", x[tr], y[tr], degree=3)
   err = [np.sqrt(np.mean((e.predict(x[va]) - y[va]) ** 2, axis=0)) for e in (cross, channel)]
   assert (err[0] <= err[1]).all() and (err[0] < 0.1 * err[1]).any(), err
+
+
+def test_the_ridge_search_goes_past_its_grid_while_the_held_out_error_still_falls():
+  """Targets that are noise alone: the held-out error falls with every larger ridge weight
+  (the polynomial shrinks to the mean), so the search goes past the grid's largest weight
+  (1 x the samples) instead of stopping at its edge unsaid."""
+  from calibrate import methods
+  rng = np.random.default_rng(2)
+  x, y = rng.uniform(-1, 1, (400, 3)), rng.normal(size=(400, 2))
+  parts = splits.folds(splits.groups(400, "blocks", block=40), 4, 0)
+  deg, ridge, table = methods.choose_poly(x, y, parts, (2,))
+  largest = max(poly.RIDGES)
+  assert ridge / len(x) > largest
+  assert any(f"ridge {largest * 10:g} x samples" in k for k in table)
+  # a signal the polynomial holds: the weight stays inside the grid
+  y2 = np.column_stack([x[:, 0] ** 2 - x[:, 1], x[:, 2]]) + 0.01 * rng.normal(size=(400, 2))
+  _, ridge2, table2 = methods.choose_poly(x, y2, parts, (2,))
+  assert ridge2 / len(x) < largest and len(table2) == len(poly.RIDGES)

@@ -92,10 +92,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
           f"MSE over its variance: " + ", ".join(f"{w}: {v:.3g}" for w, v in table.items())
           + ")")
   if info.settings.get("cross"):
-    print(f"polynomial: every product of total degree <= {info.settings['degree']}, ridge "
-          f"{info.settings['ridge_per_sample']:g} per sample"
-          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in info.settings
-             else "") + "; linear beyond the training box")
+    print(poly_lines(info.settings))
   if v:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
@@ -144,3 +141,20 @@ def memory_line(mem, chosen: bool) -> str:
           + (" (chosen on held-out recordings)" if chosen else "")
           + f", first differences {'kept' if mem.differences else 'not kept'}"
           + (f", drift tare below {mem.tare.threshold:g} N" if mem.tare is not None else ""))
+
+
+def poly_lines(settings: dict) -> str:
+  """What the polynomial with cross terms is: its degree and ridge, and whether the ridge
+  search ended at its largest weight with the held-out error still falling."""
+  from calibrate import methods
+  from calibrate.parts import poly
+  text = (f"polynomial: every product of total degree <= {settings['degree']}, ridge "
+          f"{settings['ridge_per_sample']:g} per sample"
+          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in settings
+             else "") + "; linear beyond the training box")
+  last = max(poly.RIDGES) * 10.0 ** methods.RIDGE_STEPS  # the search's largest weight
+  if "poly_cv_mse" in settings and settings["ridge_per_sample"] >= 0.999 * last:
+    text += (f"\n  the held-out error still fell at the largest ridge weight tried ({last:g} "
+             f"per sample): the polynomial adds little beyond the mean here; compare LS "
+             f"(--method auto)")
+  return text
