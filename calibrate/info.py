@@ -138,6 +138,13 @@ class Info:
 INTERVAL_GRID = np.linspace(0.0, 1.0, 1001)
 
 
+def integer_counts(values: np.ndarray) -> bool:
+  """Whether every value is an integer in 0..65535: ADC counts, which the C export takes as
+  uint16_t."""
+  values = np.asarray(values, float)
+  return bool(np.all((values >= 0) & (values <= 65535) & (values == np.round(values))))
+
+
 def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
   """SHA-256 of training data: the float64 bytes of inputs and targets, with their shapes."""
   return files.array_digest({"inputs": np.asarray(counts, float),

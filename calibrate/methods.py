@@ -26,7 +26,7 @@ import numpy as np
 
 from calibrate import compose, parts, select, splits
 from calibrate.fitted import CANDIDATES, Estimator, Kind
-from calibrate.info import Info, data_digest, held_out
+from calibrate.info import Info, data_digest, held_out, integer_counts
 from calibrate.parts import linear, mlp
 from calibrate.parts import poly as poly_lib
 from util import errors
@@ -262,11 +262,6 @@ def names(c: int, a: int, inputs, outputs, input_units, output_units) -> dict:
   return given
 
 
-def integer_inputs(counts: np.ndarray) -> bool:
-  """ADC counts or not: the C export takes uint16_t counts only if they were."""
-  return bool(np.all((counts >= 0) & (counts <= 65535) & (counts == np.round(counts))))
-
-
 def infos(fitted: Fitted, x, y, settings: dict, named: dict, extra: dict) -> list[Info]:
   """Each member's `Info`: the training ranges and data digest, its validation spread, the
   cross-validation's interval fields `extra`."""
@@ -362,7 +357,7 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
   named = names(counts.shape[1], forces.shape[1], inputs, outputs, input_units, output_units)
   settings = {"method": kind.value, "val_fraction": val_fraction, "seed": seed,
               "val_block": None if groups is not None else val_block,
-              "integer_inputs": integer_inputs(counts)}
+              "integer_inputs": integer_counts(counts)}
   if groups is not None:
     settings.update(split=groups.how, groups=groups.count, block=groups.block)
   parts = splits.folds(groups, folds, seed) if folds else []

@@ -25,6 +25,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from calibrate.info import integer_counts
 from util import errors
 
 RAIL_HOLD = 50  # samples in a row at a recording's extreme that make it a rail
@@ -236,8 +237,7 @@ def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
   record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
             "tare": None if steps.tare is None else steps.tare.to_json(),
             # what the C export takes when it tares the raw inputs itself
-            "raw_integer_inputs": bool(np.all((raw >= 0) & (raw <= 65535)
-                                              & (raw == np.round(raw)))),
+            "raw_integer_inputs": integer_counts(raw),
             "sample_rate": float(1 / np.median(np.concatenate(steps_s))) if steps_s else None,
             "steps": list(said)}
   return record

@@ -15,7 +15,7 @@ import numpy as np
 
 from calibrate import compose, methods, select, splits
 from calibrate.fitted import Estimator, Kind
-from calibrate.info import data_digest, held_out
+from calibrate.info import data_digest, held_out, integer_counts
 
 from calibrate.parts import gru as recurrent
 from calibrate.parts import linear
@@ -141,7 +141,7 @@ def fit_behind(memory, kind, counts, forces, segments, chosen, stream, names, se
       est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
       input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[chosen]),
       settings={**est.info.settings, "memory": memory.settings(),
-                "integer_inputs": methods.integer_inputs(raw)})
+                "integer_inputs": integer_counts(raw)})
   return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info)
 
 

@@ -158,7 +158,7 @@ def _problem(ctx) -> tuple:
   a random subset (`SAMPLES`, `QUICK_SAMPLES`) with a 15 % validation split."""
   import jax
   import jax.numpy as jnp
-  from calibrate import estimators, splits
+  from calibrate import splits
   from calibrate.parts import mlp
   from sim.footpad import protocol, scene as scene_lib
   scene = protocol.scenes(ctx.settings)["train"]

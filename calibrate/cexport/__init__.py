@@ -34,7 +34,6 @@ import numpy as np
 
 from calibrate.cexport import skeleton
 from calibrate.cexport.emitter import Emitter
-from calibrate.cexport.skeleton import comment_text, identifiers, integer_inputs  # noqa: F401
 from util import errors, files
 
 
@@ -201,7 +200,7 @@ def run_on_host(est, counts: np.ndarray, segments: Optional[np.ndarray] = None,
   with tempfile.TemporaryDirectory() as d:
     d = pathlib.Path(d)
     write(est, d, fixed_point=fixed_point)
-    integer = integer_inputs(est)
+    integer = skeleton.integer_inputs(est)
     harness = HOST_HARNESS.replace("ESTIMATOR_INPUT_TYPE", "uint16_t" if integer else "float")
     harness = harness.replace(
         "RESET_IF_NEW", "if (session != last_session) estimate_reset(); else if (label != "

@@ -9,7 +9,6 @@ block, in the tree's order (`calibrate.cexport`).
 
 from __future__ import annotations
 
-import dataclasses
 from typing import ClassVar, NamedTuple, Optional
 
 import numpy as np
@@ -103,7 +102,3 @@ def check_shapes(what: str, arrays: dict[str, np.ndarray], shapes: dict[str, tup
   if bad:
     raise ValueError(f"the {what}'s arrays {', '.join(bad)} do not fit together")
 
-
-def replace(part, **changes):
-  """A frozen part with some fields changed."""
-  return dataclasses.replace(part, **changes)
