@@ -17,7 +17,6 @@ puts a memory front end before them.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import importlib
 import warnings
 from typing import Optional
@@ -173,9 +172,9 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
   only = np.zeros(y.shape[1], bool)
   if residual_of:
     rmse = np.array(stats["cv_rmse"])
-    only = select.ls_only(both[0], both[1])
-    residual[:, only] = both[1][:, only]
     ls_rmse = np.sqrt(np.mean(both[1] ** 2, axis=0))
+    only = select.ls_only(rmse, ls_rmse)
+    residual[:, only] = both[1][:, only]
     stats["cv_fold_rmse"] = select.stats(residual, parts, groups)["cv_fold_rmse"]
     stats.update(cv_rmse_ls_stage=ls_rmse.tolist(), cv_rmse=np.where(only, ls_rmse,
                                                                      rmse).tolist())
@@ -313,14 +312,15 @@ RECIPES = {
     "POLY": LinearRecipe,  # with cross=True: PolyRecipe
     "LSANN": NetworkRecipe,
     "NN": NetworkRecipe,
-    "LSGP": functools.partial(ResidualRecipe, "gp"),
+    "LSGP": ResidualRecipe,
 }
+# the methods that are LS plus a family fitted on its residual, and that family
+RESIDUAL_FAMILIES = {"LSGP": "gp"}
 
 
 def seeded(kind: str) -> bool:
   """Whether the method starts from a random draw (an ensemble of seeds means something)."""
-  how = RECIPES[kind]
-  return getattr(how, "func", how).SEEDED
+  return RECIPES[kind].SEEDED
 
 
 def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
@@ -335,8 +335,8 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
     ridge = 0.0 if ridge is None else float(ridge)
     settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
     return PolyRecipe(degree, ridge)
-  if isinstance(RECIPES[kind], functools.partial):  # LS plus a family on its residual
-    return RECIPES[kind](options["gp"])
+  if kind in RESIDUAL_FAMILIES:
+    return ResidualRecipe(RESIDUAL_FAMILIES[kind], options["gp"])
   if kind in ("LS", "POLY"):
     degree = options["degree"] if kind == "POLY" else 1
     if kind == "POLY":

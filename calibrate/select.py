@@ -75,10 +75,10 @@ def greedy(score: Callable, options: Sequence, room: Callable) -> list:
     best = trials[t]
 
 
-def ls_only(full: np.ndarray, base: np.ndarray) -> np.ndarray:
+def ls_only(full_rmse: np.ndarray, base_rmse: np.ndarray) -> np.ndarray:
   """(A,) outputs where the base stage alone held out no worse than base plus residual part
-  ((N, A) held-out residuals of each)."""
-  return np.sqrt(np.mean(base ** 2, axis=0)) <= np.sqrt(np.mean(full ** 2, axis=0))
+  ((A,) held-out RMSE of each)."""
+  return base_rmse <= full_rmse
 
 
 def one_standard_error(rmse: np.ndarray, fold_rmse: np.ndarray, scale: np.ndarray
