@@ -234,11 +234,14 @@ class FewStatesWarning(UserWarning):
 
 def warn_few_states(inputs: int, forces: np.ndarray, config: mlp.LMConfig) -> None:
   """Warns when the targets take few distinct values (load states, told apart at 1 % of
-  each output's range) for the network's weights: it will interpolate between them."""
+  each output's range) for the network's weights: it will interpolate between them. Loads
+  that vary continuously fill the bins they can (at most 101 per output at 1 %: one output
+  has no more however many samples), so states are few only below half of that."""
   span = np.ptp(forces, axis=0)
   states = len(np.unique(np.round(forces / np.where(span > 0, span, 1.0) * 100), axis=0))
   weights = config.hidden * (inputs + 1) + forces.shape[1] * (config.hidden + 1)
-  if states < 2 * weights:
+  room = min(len(forces), 101.0 ** forces.shape[1])
+  if states < 2 * weights and states < 0.5 * room:
     warnings.warn(f"the targets take only {states} distinct load states (told apart at 1 % of "
                   f"each output's range) for a network of at least {weights} weights: it "
                   f"will interpolate between them; average several networks (--ensemble "
@@ -407,15 +410,18 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
                               "folds >= 2")
   fitted, table = [], {}
-  for kind in (CANDIDATES if candidates is None else candidates):
-    kind = Kind(kind)
-    t0 = time.perf_counter()
-    one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
-    est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
-              progress=progress, **{**kwargs, **one})
-    table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
-                         "seconds": time.perf_counter() - t0, "estimator": est}
-    fitted.append(est)
+  with warnings.catch_warnings(record=True) as heard:
+    warnings.simplefilter("always", FewStatesWarning)
+    for kind in (CANDIDATES if candidates is None else candidates):
+      kind = Kind(kind)
+      t0 = time.perf_counter()
+      one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
+      est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
+                progress=progress, **{**kwargs, **one})
+      table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
+                           "seconds": time.perf_counter() - t0, "estimator": est}
+      fitted.append(est)
+  _say_once(heard)
   best = select.one_standard_error(
       np.array([e.info.validation["cv_rmse"] for e in fitted]),
       np.array([e.info.validation["cv_fold_rmse"] for e in fitted]),
@@ -429,6 +435,14 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick, info.input_lo,
                            info.input_hi)
   return Estimator(Kind.AUTO, root, info), table
+
+
+def _say_once(heard) -> None:
+  """Warns again what the candidates' fits warned, each message once (both networks would
+  say the same of the same targets)."""
+  for message in dict.fromkeys(str(w.message) for w in heard):
+    category = next(w.category for w in heard if str(w.message) == message)
+    warnings.warn(message, category, stacklevel=3)
 
 
 def _auto_info(chosen, first: Info, table: dict) -> Info:

@@ -132,13 +132,21 @@ class Prepared:
 
 
 def lsb(values: np.ndarray) -> float:
-  """The smallest step between a channel's distinct values (its least significant bit, as
-  far as the data show it); 1.0 for a channel with a single value."""
+  """A channel's least significant bit as far as its values show it: the smallest step
+  between neighbouring distinct values that recurs (in at least `LSB_SHARE` of those steps,
+  and twice). A few values off the grid (a glitch, a logger's rounding) make steps of their
+  own that occur once and do not set it; 1.0 for a channel with a single value."""
   u = np.unique(values)
   if len(u) < 2:
     return 1.0
   d = np.diff(u)
-  return float(d[d > 1e-9 * max(np.abs(u).max(), 1.0)].min())
+  d = d[d > 1e-9 * max(np.abs(u).max(), 1.0)]
+  steps, counts = np.unique(np.round(d / d.max(), 9), return_counts=True)
+  common = steps[counts >= max(2, LSB_SHARE * len(d))]
+  return float((common.min() if common.size else steps.min()) * d.max())
+
+
+LSB_SHARE = 0.01
 
 
 def jumps(x: np.ndarray, threshold: np.ndarray) -> list[tuple[int, int]]:
@@ -147,19 +155,39 @@ def jumps(x: np.ndarray, threshold: np.ndarray) -> list[tuple[int, int]]:
   return sorted(zip((rows + 1).tolist(), cols.tolist()))
 
 
-def wrap_like(x: np.ndarray) -> list[tuple[int, int]]:
+def wrap_like(x: np.ndarray, others: Optional[np.ndarray] = None) -> list[tuple[int, int]]:
   """(row, channel) of the jumps that look like a register wrapping, with no register width
   given: over three quarters of the channel's range in one sample, from its outer quarter on
-  one side to the outer quarter on the other. Half the range (the plain rule) also flags
-  the press edges of a 50 Hz log (measured on the example recordings: 3-6 per recording)."""
+  one side to the outer quarter on the other, and staying there (the next `WRAP_STAY`
+  samples on the far half). Half the range (the plain rule) also flags the press edges of a
+  50 Hz log (measured on the example recordings: 3-6 per recording). Noise is no wrap: a
+  channel whose median step is over `WRAP_NOISE` of its range, or whose range is under
+  `WRAP_MIN_BITS` of its bits, is not searched (a channel at rest spans a few counts, and
+  each of them jumps across it). Nor is a step of the load: a jump where another column (an
+  input, or a target in `others` (N, A)) jumps over `WRAP_ALONE` of its range in the same
+  sample (static loads changing state) is the load's, as a register wraps alone."""
+  every = x if others is None else np.column_stack([x, others])
+  step = np.abs(np.diff(every, axis=0)) / np.where(np.ptp(every, axis=0) > 0,
+                                                   np.ptp(every, axis=0), 1.0)
   lo, span = x.min(axis=0), np.ptp(x, axis=0)
   pos = (x - lo) / np.where(span > 0, span, 1.0)  # 0..1 within the channel's range
+  steady = [np.median(np.abs(np.diff(x[:, c]))) <= WRAP_NOISE * span[c]
+            and span[c] >= WRAP_MIN_BITS * lsb(x[:, c]) for c in range(x.shape[1])]
   found = []
   for row, c in jumps(x, 0.75 * span):
     a, b = pos[row - 1, c], pos[row, c]
-    if min(a, b) < 0.25 and max(a, b) > 0.75:
+    after = pos[row:row + 1 + WRAP_STAY, c]
+    stays = np.all(after > 0.5) if b > a else np.all(after < 0.5)
+    alone = np.delete(step[row - 1], c).max(initial=0.0) < WRAP_ALONE
+    if steady[c] and min(a, b) < 0.25 and max(a, b) > 0.75 and stays and alone:
       found.append((row, c))
   return found
+
+
+WRAP_STAY = 3  # samples after a wrap that stay on its far side
+WRAP_NOISE = 0.05  # a median one-sample step over this share of the range: noise
+WRAP_MIN_BITS = 64  # a channel spanning fewer bits than this is at rest, not wrapping
+WRAP_ALONE = 0.25  # another column's one-sample step over this share of its range: a load step
 
 
 def unwrap(x: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -173,27 +201,39 @@ def unwrap(x: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
   return out, (k != 0).sum(axis=0)
 
 
-def at_rails(x: np.ndarray, rails: Optional[tuple[float, float]]) -> np.ndarray:
-  """(N, C) bool: the samples at a rail. Given rails: at or beyond them; otherwise a
-  channel's minimum or maximum over the recording when it is held `RAIL_HOLD` samples in a
-  row somewhere (a sensor at rest that merely sits at its lowest reading wanders by its
-  noise and is not held that long)."""
+def at_rails(x: np.ndarray, rails: Optional[tuple[float, float]],
+             others: Optional[np.ndarray] = None) -> np.ndarray:
+  """(N, C) bool: the samples at a rail. Given rails: at or beyond them. Otherwise a
+  channel's minimum or maximum over the recording, where it is held `RAIL_HOLD` samples in
+  a row while the load moves: some other column (another input, or a target in `others`
+  (N, A)) sweeps over `RAIL_MOVE` of its range during that run. A held extreme with
+  everything else held too is a static load or a sensor at rest (a logger tared to exactly
+  zero), not a clipped one; a single column with nothing beside it is never called
+  railed unless the rails are given."""
   if rails is not None:
     return (x <= rails[0]) | (x >= rails[1])
+  every = x if others is None else np.column_stack([x, others])
+  span = np.ptp(every, axis=0)
   mask = np.zeros(x.shape, bool)
   for c in range(x.shape[1]):
+    rest = np.delete(np.arange(every.shape[1]), c)
     for extreme in (x[:, c].min(), x[:, c].max()):
       at = x[:, c] == extreme
-      if _longest_run(at) >= RAIL_HOLD:
-        mask[:, c] |= at
+      for a, b in _runs(at):
+        moved = np.ptp(every[a:b][:, rest], axis=0) > RAIL_MOVE * span[rest]
+        if b - a >= RAIL_HOLD and moved.any():
+          mask[:, c] |= at
+          break
   return mask
 
 
-def _longest_run(flags: np.ndarray) -> int:
-  if not flags.any():
-    return 0
+RAIL_MOVE = 0.1
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+  """(start, stop) of each run of True in `flags`."""
   edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
-  return int((np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).max())
+  return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
 
 
 def _where(table, rows: Sequence[int]) -> str:
@@ -243,17 +283,32 @@ def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
   return record
 
 
-def _jumps_said(table, x: np.ndarray, names: list[str], periods) -> list[str]:
-  """One line per channel with one-sample jumps over half its register (with periods,
-  which are undone) or over 3/4 of its range (a wrap-around, perhaps)."""
+def _jumps_said(table, x: np.ndarray, y, names: list[str], periods) -> list[str]:
+  """One line for the recording: the channels with one-sample jumps over half their
+  register (with periods, which are undone) or over 3/4 of their range (a wrap-around,
+  perhaps), each with its count and first lines."""
   per = {}
-  for row, c in (jumps(x, periods / 2) if periods is not None else wrap_like(x)):
+  for row, c in (jumps(x, periods / 2) if periods is not None else wrap_like(x, y)):
     per.setdefault(c, []).append(row)
+  if not per:
+    return []
   size = "half its register" if periods is not None else "3/4 of its range"
-  return [f"{table.path}: {names[c]}: {len(rows)} one-sample jump(s) over {size}, "
-          f"{_where(table, rows)}" + (" (undone)" if periods is not None else
-                                      ": register wrap-around? --unwrap BITS undoes them")
-          for c, rows in per.items()]
+  found = "; ".join(f"{names[c]} {len(rows)} ({_where(table, rows)})"
+                    for c, rows in per.items())
+  return [f"{table.path}: one-sample jumps over {size}: {found}"
+          + (" (undone)" if periods is not None else
+             ": register wrap-around? --unwrap BITS or --unwrap-period undoes them")]
+
+
+def _rails_said(table, rail: np.ndarray, names: list[str], dropped: bool) -> list[str]:
+  """One line for the recording: the channels at a rail, each with its share of samples."""
+  hit = np.flatnonzero(rail.any(axis=0))
+  if not hit.size:
+    return []
+  shares = ", ".join(f"{names[c]} {rail[:, c].sum()} of {len(rail)} samples "
+                     f"({rail[:, c].mean():.1%})" for c in hit)
+  return [f"{table.path}: at a rail: {shares}"
+          + (" (dropped)" if dropped else ": --drop-rails removes them")]
 
 
 def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps: Steps,
@@ -274,14 +329,11 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
     x = table.data[:, inputs]
     y = None if targets is None else table.data[:, targets]
     keep = np.ones(len(x), bool)
-    said += _jumps_said(table, x, [names[i] for i in inputs], periods)
+    said += _jumps_said(table, x, y, [names[i] for i in inputs], periods)
     if periods is not None:
       x, undone = unwrap(x, periods)
-    rail = at_rails(x, steps.rails)
-    for c in np.flatnonzero(rail.any(axis=0)):
-      said.append(f"{table.path}: {names[inputs[c]]} at its rail in {rail[:, c].sum()} of "
-                  f"{len(x)} samples ({rail[:, c].mean():.1%})"
-                  + (" (dropped)" if steps.drop_rails else ": --drop-rails removes them"))
+    rail = at_rails(x, steps.rails, y)
+    said += _rails_said(table, rail, [names[i] for i in inputs], steps.drop_rails)
     if steps.drop_rails:
       keep &= ~rail.any(axis=1)
     if steps.tare is not None:

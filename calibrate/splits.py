@@ -46,8 +46,8 @@ class Groups:
     if self.how == "recordings":
       return f"{self.count} recordings, each held out whole"
     if self.how == "blocks":
-      return (f"one recording cut into {self.count} contiguous blocks of {self.block} samples "
-              f"(the inputs' autocorrelation falls below 1/e by then)")
+      return (f"{self.count} contiguous blocks of {self.block} samples, each within one "
+              f"recording (the inputs' autocorrelation falls below 1/e by then)")
     return "single samples at random (the paper's split: flatters every method)"
 
 
@@ -104,7 +104,17 @@ def groups(n: int, how: How = "auto", recording: Optional[np.ndarray] = None,
   if n < 2 * block:
     raise errors.SettingError(f"{n} samples cannot make two blocks of {block}: give more "
                               f"samples or several recordings")
-  return Groups(np.arange(n) // block, "blocks", block)
+  if recording is None:
+    return Groups(np.arange(n) // block, "blocks", block)
+  # blocks within each recording: a block across a file boundary would join two recordings
+  _, rec = np.unique(np.asarray(recording), return_inverse=True)
+  order = np.argsort(rec, kind="stable")
+  within = np.empty(n, int)
+  starts = np.searchsorted(rec[order], np.arange(rec.max() + 1))
+  within[order] = np.arange(n) - np.repeat(starts, np.bincount(rec))
+  keys = rec.astype(np.int64) * (n + 1) + within // block
+  _, labels = np.unique(keys, return_inverse=True)
+  return Groups(labels.astype(int), "blocks", block)
 
 
 def holdout(g: Groups, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

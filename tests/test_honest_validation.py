@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from calibrate import __main__ as cli
-from calibrate import csvfile, estimators, splits
+from calibrate import csvfile, estimators, methods, splits
 from calibrate.parts import mlp
 
 
@@ -293,6 +293,23 @@ def test_a_network_on_few_load_states_is_warned_about_with_the_count():
   with warnings.catch_warnings():
     warnings.simplefilter("error", estimators.FewStatesWarning)
     estimators.fit("NN", x2, x2[:, :3] @ np.eye(3), config=mlp.LMConfig(hidden=10, epochs=3))
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_one_continuous_output_is_not_few_states_and_auto_says_it_once():
+  """One output sweeping continuously fills the 101 bins it can at 1 %: no warning however
+  large the network; few static states warned of once by `auto`, not once per network."""
+  rng = np.random.default_rng(2)
+  x = rng.uniform(0, 4000, (3000, 8))
+  with warnings.catch_warnings():
+    warnings.simplefilter("error", estimators.FewStatesWarning)
+    methods.warn_few_states(8, x[:, :1] * 0.01, mlp.LMConfig(hidden=64))
+  xs, ys, rec = _static_states(states=12, per=20)
+  with warnings.catch_warnings(record=True) as heard:
+    warnings.simplefilter("always")
+    estimators.fit_auto(xs, ys, splits.groups(len(xs), "recordings", rec), 2,
+                        config=mlp.LMConfig(hidden=4, epochs=2))
+  assert sum(issubclass(w.category, estimators.FewStatesWarning) for w in heard) == 1
 
 
 @pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out

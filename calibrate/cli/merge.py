@@ -61,14 +61,25 @@ def run(args) -> int:
   if len(set(stems)) != len(stems):
     raise errors.SettingError("two sensor files share a name; the merged recordings are named "
                               "after them: rename one")
-  done = []
-  for (a, b), stem in zip(pairs, stems):
-    sensor = csvfile.read(a, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
-    reference = csvfile.read(b, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+  read = [[csvfile.read(f, args.time_column, drop_nan=args.drop_nan, dedupe=args.dedupe)
+           for f in pair] for pair in pairs]
+  for sensor, reference in read:
     for line in sensor.cleaned + reference.cleaned:
       print(line)
-    m = streams.merge(sensor, reference, args.lag, args.max_gap, args.time_column,
-                      args.max_lag)
+  done = [streams.merge(sensor, reference, args.lag, args.max_gap, args.time_column,
+                        args.max_lag) for sensor, reference in read]
+  estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
+  far = [estimated[k] for k in streams.outlying_lags([done[k].lag for k in estimated])]
+  if far:
+    # one logger's lag does not change between recordings: an estimate far from the others
+    # locked onto another event, and the others' median is the better guess for its pair
+    others = float(np.median([done[j].lag for j in estimated if j not in far]))
+    for k in far:
+      print(f"warning: {pairs[k][0]}: its estimated lag {done[k].lag * 1e3:.1f} ms lies far "
+            f"from the other pairs' (median {others * 1e3:.1f} ms): the estimate locked onto "
+            f"another event; merged at the median instead (--lag SECONDS sets every pair's)")
+      done[k] = streams.merge(*read[k], others, args.max_gap, args.time_column, args.max_lag)
+  for (a, _), stem, m in zip(pairs, stems, done):
     csvfile.write(out / f"{stem}.csv", m.names, m.data, m.units)
     print(m.describe(str(a)))
     share = m.in_gaps / max(1, len(m.data) + m.in_gaps)
@@ -76,21 +87,13 @@ def run(args) -> int:
       print(f"warning: {a}: {share:.0%} of its rows inside the reference's span fall in "
             f"gaps over {m.max_gap * 1e3:.1f} ms and were dropped: if the reference just "
             f"logs irregularly, give a longer --max-gap")
-    done.append(m)
   lags = [m.lag * 1e3 for m in done]
-  estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
-  far = [estimated[k] for k in streams.outlying_lags([done[k].lag for k in estimated])]
-  for k in far:
-    others = np.median([lags[j] for j in estimated if j not in far])
-    print(f"warning: {pairs[k][0]}: its lag {lags[k]:.1f} ms lies far from the other pairs' "
-          f"(median {others:.1f} ms): one logger's lag does not change between recordings, "
-          f"so the estimate may have locked onto another event; check the pair, or give "
-          f"--lag {others / 1e3:.4f}")
   print(f"merged {len(done)} pair(s): {sum(len(m.data) for m in done):,} rows kept, "
         f"{sum(m.outside for m in done):,} outside the overlap and "
         f"{sum(m.in_gaps for m in done):,} in reference gaps dropped, lag "
         + (f"{lags[0]:.1f} ms" if len(set(np.round(lags, 1))) == 1 else
            f"{min(lags):.1f} to {max(lags):.1f} ms")
-        + (f" ({len(far)} far from the others: see the warnings)" if far else "")
+        + (f" ({len(far)} estimate(s) far from the others replaced by their median)"
+           if far else "")
         + f"; wrote {out}/")
   return 0
