@@ -266,9 +266,16 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   assert cli.main(["compare", *data, "--out", str(tmp_path / "table.csv")]) == 0
   out = capsys.readouterr().out
   assert all(m in out for m in ("LS", "POLY", "LSANN", "NN")) and "*" in out
+  # both questions, each named: a new recording, and later time in the same ones
+  assert "answers: how far off on a recording the fit never saw" in out
+  assert "answers: how far off later in these same recordings" in out
   lines = (tmp_path / "table.csv").read_text().splitlines()
-  assert lines[0].startswith("method,Fx_cv_rmse") and lines[-1].startswith("kept,")
+  assert lines[0].startswith("method,Fx_cv_rmse") and lines[-1].startswith("kept [blocks],")
+  assert any(line.startswith("kept,") for line in lines)
   assert cli.main(["fit", *data, "--method", "auto", "--out", str(tmp_path / "a.npz")]) == 0
+  out = capsys.readouterr().out
+  assert "answers: how far off on a recording the fit never saw" in out
+  assert "--split blocks: later time in these same recordings" in out
   assert estimators.Estimator.load(tmp_path / "a.npz").kind is estimators.Kind.AUTO
 
 

@@ -327,6 +327,32 @@ def new_recording(est, args, targets: bool = False):
   return table, ready
 
 
+QUESTIONS = {
+    "recordings": "how far off on a recording the fit never saw (another session, another "
+                  "day)",
+    "blocks": "how far off later in these same recordings (blocks of them held out, no "
+              "block shared with training)",
+    "samples": "how far off at instants between training samples (single samples held out: "
+               "flatters every method)",
+}
+
+
+ASKS = {"recordings": "a recording the fit never saw",
+        "blocks": "later time in the same recordings",
+        "samples": "instants between training samples, which flatters every method"}
+
+
+def question(groups, recordings: int) -> str:
+  """What the held-out error answers with this split, and the option for the other
+  question where the data allow it."""
+  other = {"recordings": "--split blocks: later time in these same recordings",
+           "blocks": "--split recordings: a recording the fit never saw"}.get(groups.how)
+  text = f"the held-out error answers: {QUESTIONS[groups.how]}"
+  if other and recordings >= 2:
+    text += f"; the other question: {other} (compare prints both)"
+  return text
+
+
 def print_candidates(est, candidates: dict) -> None:
   """The held-out RMSE of every candidate per output, the kept one marked."""
   info = est.info

@@ -64,6 +64,12 @@ def run(args) -> int:
           + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
   if not cover:
     print("no interval: the estimator was fitted without grouped cross-validation")
+  v = info.validation or {}
+  if v.get("cv_rmse") and v.get("split") in common.QUESTIONS:
+    print(f"the fit's held-out RMSE, {v['split']} held out ({common.ASKS[v['split']]}): "
+          + ", ".join(f"{n} {r:.4g} {u}" for n, r, u in zip(names, v["cv_rmse"], units)))
+    print("a file the fit never saw asks what --split recordings answers; a later stretch "
+          "of a training recording, what --split blocks answers")
   metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)

@@ -84,6 +84,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
         f"({len(info.inputs)} inputs -> {', '.join(info.outputs)})")
   v = info.validation
   print(f"validation: {groups.describe()}")
+  print(common.question(groups, len(np.unique(args.recording))))
   if est.memory is not None:
     print(memory_line(est.memory, args.history == "auto"))
   if "width_cv" in info.settings:
@@ -131,6 +132,11 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
   elif stops:
     print("training stopped: " + "; ".join(
         f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))
+  if stops:
+    what = "networks never trained on their" if len(stops) > 1 else "network never trained on its"
+    print(f"the {what} early-stopping hold-out ({args.val_fraction:.0%} of the samples, "
+          f"{'whole recordings' if groups.how == 'recordings' else groups.how}): it only "
+          f"chose when to stop")
 
 
 def memory_line(mem, chosen: bool) -> str:
