@@ -93,11 +93,13 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
 
 
 def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, folds: int = 5,
-             candidates: Sequence[Kind] = CANDIDATES, progress=None, **kwargs
+             candidates: Optional[Sequence] = None, progress=None, **kwargs
              ) -> tuple[Estimator, dict]:
-  """Every candidate fitted and cross-validated on the same grouped folds (POLY with cross
-  terms); for each output, the simplest (in the order of `candidates`) whose held-out RMSE
-  is within one standard error over the folds (or `TIE`) of the lowest.
+  """Every candidate fitted and cross-validated on the same grouped folds; for each output,
+  the simplest (in the order of `candidates`) whose held-out RMSE is within one standard
+  error over the folds (or `TIE`) of the lowest. `candidates`: names of
+  `methods.AUTO` (or methods, each its plain fit); None: `methods.AUTO_CANDIDATES`, LS,
+  each channel's powers (POLY-CH), POLY with cross terms, LSANN and NN.
 
   Returns (the AUTO estimator, {method: {"cv_rmse": [per output], "seconds": fit time,
   "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...;

@@ -31,7 +31,7 @@ class Kind(enum.Enum):
   LSGP = "LSGP"  # LS plus a Gaussian process on its residual (`calibrate.parts.gp`)
 
 
-# the methods `fit_auto` chooses among, simplest first
+# the methods as their plain fits (`fit_auto` chooses among `methods.AUTO_CANDIDATES`)
 CANDIDATES = (Kind.LS, Kind.POLY, Kind.LSANN, Kind.NN)
 
 

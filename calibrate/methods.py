@@ -24,7 +24,7 @@ from typing import Optional
 import numpy as np
 
 from calibrate import compose, parts, select, splits
-from calibrate.fitted import CANDIDATES, Estimator, Kind
+from calibrate.fitted import Estimator, Kind
 from calibrate.info import Info, data_digest, held_out, integer_counts
 from calibrate.parts import linear, mlp
 from calibrate.parts import poly as poly_lib
@@ -403,6 +403,27 @@ def combine(members):
                    trainings=tuple(m.training for m in members))
 
 
+# the candidates `fit_auto` chooses among by name, simplest first: each a method and the fit
+# options that make it this candidate
+AUTO = {
+    "LS": (Kind.LS, {}),
+    "POLY-CH": (Kind.POLY, {"cross": False}),  # each channel's powers: the shell paper's
+    "POLY": (Kind.POLY, {"cross": True}),
+    "LSANN": (Kind.LSANN, {}),
+    "NN": (Kind.NN, {}),
+    "LSGP": (Kind.LSGP, {}),
+}
+AUTO_CANDIDATES = ("LS", "POLY-CH", "POLY", "LSANN", "NN")
+
+
+def candidate_name(candidate) -> str:
+  """A candidate's name in `AUTO` from its name or its method (a `Kind`: its plain fit)."""
+  name = candidate.value if isinstance(candidate, Kind) else str(candidate)
+  if name not in AUTO:
+    raise errors.unknown("candidate", name, tuple(AUTO))
+  return name
+
+
 def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **kwargs):
   """`calibrate.estimators.fit_auto` (its docstring says what it returns)."""
   import time
@@ -410,16 +431,17 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
                               "folds >= 2")
   fitted, table = [], {}
+  names = [candidate_name(c) for c in (AUTO_CANDIDATES if candidates is None else candidates)]
   with warnings.catch_warnings(record=True) as heard:
     warnings.simplefilter("always", FewStatesWarning)
-    for kind in (CANDIDATES if candidates is None else candidates):
-      kind = Kind(kind)
+    for name in names:
+      kind, fixed = AUTO[name]
       t0 = time.perf_counter()
       one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
-      est = fit(kind, counts, forces, groups=groups, folds=folds, cross=kind is Kind.POLY,
-                progress=progress, **{**kwargs, **one})
-      table[kind.value] = {"cv_rmse": est.info.validation["cv_rmse"],
-                           "seconds": time.perf_counter() - t0, "estimator": est}
+      est = fit(kind, counts, forces, groups=groups, folds=folds, progress=progress,
+                **{**kwargs, **one, **fixed})
+      table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
+                     "seconds": time.perf_counter() - t0, "estimator": est}
       fitted.append(est)
   _say_once(heard)
   best = select.one_standard_error(
@@ -431,7 +453,8 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
   ls = [k for k, e in enumerate(fitted) if e.kind is Kind.LS]
   used = sorted(set(best.tolist()) | set(ls))
   pick = tuple(used.index(k) for k in best)
-  info = _auto_info([fitted[k] for k in best], fitted[used[0]].info, table)
+  info = _auto_info([fitted[k] for k in best], [names[k] for k in best],
+                    fitted[used[0]].info, table)
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick, info.input_lo,
                            info.input_hi)
   return Estimator(Kind.AUTO, root, info), table
@@ -445,7 +468,7 @@ def _say_once(heard) -> None:
     warnings.warn(message, category, stacklevel=3)
 
 
-def _auto_info(chosen, first: Info, table: dict) -> Info:
+def _auto_info(chosen, chosen_names, first: Info, table: dict) -> Info:
   """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate."""
   infos = [e.info for e in chosen]
   cols = range(len(chosen))
@@ -460,7 +483,7 @@ def _auto_info(chosen, first: Info, table: dict) -> Info:
       validation={**{k: v for k, v in first.validation.items()
                      if k in ("split", "groups", "block", "folds")},
                   "cv_rmse": [i.validation["cv_rmse"][j] for j, i in zip(cols, infos)],
-                  "chosen": [e.kind.value for e in chosen],
+                  "chosen": list(chosen_names),
                   "candidates": {k: v["cv_rmse"] for k, v in table.items()},
                   "ls_only": [n for j, n in enumerate(first.outputs)
                               if n in infos[j].validation.get("ls_only", [])]})

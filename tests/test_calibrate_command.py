@@ -308,6 +308,33 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
   assert np.max(np.abs(c_out - got) / np.abs(got).max(axis=0)) < 1e-5
 
 
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_path):
+  """Targets that are each channel's cube, no cross terms: `auto` keeps POLY-CH (the
+  simplest within a standard error of the best); past the box the cube is taken at the box
+  and continued along the LS plane, not grown as a cube, in Python and in C."""
+  from calibrate import splits
+  rng = np.random.default_rng(4)
+  counts = rng.uniform(500, 3500, (900, 3))
+  z = (counts - 2000) / 1000
+  forces = np.column_stack([z[:, 0] ** 3 + z[:, 1], 2 * z[:, 1] ** 3 - z[:, 2] ** 2,
+                            z[:, 2] ** 3]) + rng.normal(0, 0.01, (900, 3))
+  est, table = estimators.fit_auto(counts, forces, splits.groups(900, "blocks", block=90), 3,
+                                   candidates=("LS", "POLY-CH", "POLY"), seed=1)
+  assert est.info.validation["chosen"] == ["POLY-CH"] * 3, table
+  beyond = rng.uniform(0, 4095, (200, 3))
+  with __import__("warnings").catch_warnings():
+    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
+    got = est.predict(beyond)
+    box = np.clip(beyond, est.info.input_lo, est.info.input_hi)
+    cubic, lin = est.parts[est.pick[0]], est.parts[est.guard()]
+    np.testing.assert_allclose(got, cubic.predict(box) + lin.predict(beyond)
+                               - lin.predict(box), rtol=1e-12)
+    want = est.predict(beyond.round())
+  c_out = cexport.run_on_host(est, beyond.round(), cc=CC)
+  assert np.max(np.abs(c_out - want) / np.abs(want).max(axis=0)) < 1e-5
+
+
 def test_the_export_report_counts_a_known_network():
   """LSANN, 6 inputs, 10 hidden, 3 outputs: LS 6 x 3 = 18, network 10 x 7 + 3 x 11 + 6 + 3
   = 112, the final scaling 3: 133 multiply-adds; weights (6 + 6 + 18 + 3) + (6 + 6 + 70 +

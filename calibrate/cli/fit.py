@@ -17,9 +17,10 @@ def add_parser(sub) -> None:
                  help="ls: linear least squares; poly: polynomial with cross terms; "
                       "lsann: LS plus a network on its residual; nn: the network alone; "
                       "gru: LS plus a small recurrent network (GRU) on its residual, "
-                      "reading the inputs' past (needs the time column); auto: ls, "
-                      "poly, lsann and nn on the same held-out groups, the best kept per "
-                      "output")
+                      "reading the inputs' past (needs the time column); lsgp: LS plus a "
+                      "Gaussian process on its residual; auto: ls, each channel's powers "
+                      "(POLY-CH), poly, lsann and nn on the same held-out groups, the best "
+                      "kept per output")
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                  help="where to write the estimator (default estimator.npz)")
   p.add_argument("--per-channel", action="store_true",
@@ -116,6 +117,11 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     print("no cross-validation (--folds 0, or a single group): no interval; the validation "
           "residual sd " + ", ".join(f"{n} {s:.4g} {u}" for n, s, u in
                                      zip(info.outputs, info.residual_sd, units)))
+  training_lines(est, args, groups)
+
+
+def training_lines(est, args, groups) -> None:
+  """How the networks' training stopped, and what their early-stopping hold-out was for."""
   stops = [m.training for m in (est.members or (est,)) if m.training is not None]
   if len(stops) > 3:  # an ensemble: the spread, not a line per network
     why = sorted({t.stop.value for t in stops})

@@ -61,6 +61,11 @@ class LinearFit(Part):
     return "LS" if self.degree == 1 else "POLY"
 
   @property
+  def tame(self) -> bool:
+    """A plane is; each channel's cubic grows as a cube beyond the box."""
+    return self.degree == 1
+
+  @property
   def n_inputs(self) -> int:
     return len(self.mean)
 
