@@ -46,7 +46,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         groups: Optional[splits.Groups] = None, folds: int = 0,
         cross: bool = False, ridge: Optional[float] = None,
         widths: Sequence[int] = (), net_inputs: Optional[int] = None,
-        gp=None) -> Estimator:
+        gp=None, deep=None, layers: Optional[Sequence[int]] = None) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -79,6 +79,10 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       (None: all); the LS stage reads all.
     gp: for LSGP, the Gaussian process's settings (`calibrate.parts.gp.GPConfig`; None: its
       defaults).
+    deep: for MLP, the perceptron's settings (`calibrate.parts.deep.DeepConfig`; None: its
+      defaults). layers: its hidden layers, e.g. (64, 64); None: chosen among
+      `deep.GRID` (one or two layers, 16 to 128 units) on the held-out groups when there
+      are folds, else `deep`'s.
     folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
       its held-out residuals size the estimator's interval (`Info.half_width`) and its
       RMSE per output is kept; an LSANN output whose network does not beat its LS stage
@@ -89,7 +93,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       val_fraction=val_fraction, seed=seed, progress=progress, degree=degree,
       snapshots=snapshots, val_block=val_block, ensemble=ensemble, inputs=inputs,
       outputs=outputs, input_units=input_units, output_units=output_units, groups=groups,
-      folds=folds, cross=cross, ridge=ridge, widths=widths, net_inputs=net_inputs, gp=gp)
+      folds=folds, cross=cross, ridge=ridge, widths=widths, net_inputs=net_inputs, gp=gp,
+      deep=deep, layers=layers)
 
 
 def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, folds: int = 5,

@@ -29,6 +29,7 @@ class Kind(enum.Enum):
   GRU = "GRU"  # LS plus a recurrent network on the residual (`fit_temporal` only)
   AUTO = "AUTO"  # per output, the candidate with the lowest held-out error (`fit_auto`)
   LSGP = "LSGP"  # LS plus a Gaussian process on its residual (`calibrate.parts.gp`)
+  MLP = "MLP"  # LS plus a perceptron of one or two layers on its residual (`parts.deep`)
 
 
 # the methods as their plain fits (`fit_auto` chooses among `methods.AUTO_CANDIDATES`)

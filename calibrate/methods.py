@@ -93,12 +93,6 @@ class NetworkRecipe:
   snapshots: tuple = ()
   SEEDED = True
 
-  def seeds(self, seed: int) -> list[int]:
-    if self.ensemble == 1:
-      return [seed]
-    return [int(s.generate_state(1)[0])
-            for s in np.random.SeedSequence(seed).spawn(self.ensemble)]
-
   def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
     """`given`: for LSANN, the LS stage fitted before (else fitted on x, y)."""
     lin = None
@@ -108,7 +102,7 @@ class NetworkRecipe:
       targets = y - lin.predict(x)
     xn = x if self.net_inputs is None else x[:, :self.net_inputs]
     parts, sds, runs = [], [], []
-    for member_seed in self.seeds(seed):
+    for member_seed in member_seeds(seed, self.ensemble):
       tr, va = val.split(where, member_seed)
       res = mlp.train(xn[tr], targets[tr], xn[va], targets[va], self.config, member_seed,
                       progress, snapshots=self.snapshots)
@@ -116,6 +110,39 @@ class NetworkRecipe:
       parts.append(res.net if lin is None else compose.Residual(lin, res.net))
       runs.append(res)
     return Fitted(tuple(parts), tuple(sds), tuple(runs))
+
+
+@dataclasses.dataclass(frozen=True)
+class DeepRecipe:
+  """LS, then the perceptron (`calibrate.parts.deep`) on its residual, trained by AdamW and
+  stopped on the validation hold-out, from `ensemble` seeds."""
+  config: object = None  # deep.DeepConfig; None: its defaults
+  ensemble: int = 1
+  residual = True
+  SEEDED = True
+
+  def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
+    from calibrate.parts import deep
+    config = self.config or deep.DeepConfig()
+    lin = given or linear.fit_linear(x, y)
+    targets = y - lin.predict(x)
+    parts, sds, runs = [], [], []
+    for member_seed in member_seeds(seed, self.ensemble):
+      tr, va = val.split(where, member_seed)
+      res = deep.train(x[tr], targets[tr], x[va], targets[va], config, member_seed)
+      sds.append(np.std(targets[va] - res.net.predict(x[va]), axis=0))
+      parts.append(compose.Residual(lin, res.net))
+      runs.append(res)
+      if progress is not None:
+        progress(len(parts), self.ensemble)
+    return Fitted(tuple(parts), tuple(sds), tuple(runs))
+
+
+def member_seeds(seed: int, n: int) -> list[int]:
+  """The seeds of an ensemble's `n` members, spawned from the fit's (the seed itself for one)."""
+  if n == 1:
+    return [seed]
+  return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(seed).spawn(n)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -181,20 +208,35 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
   return residual, only, stats
 
 
-def choose_width(recipe: NetworkRecipe, x, y, groups, folds, val, seed, widths):
-  """(the recipe at the width of lowest held-out error, that width's cross-validation, table
-  {width: held-out error}); the error sums each output's held-out MSE over its variance."""
+def choose(candidates: dict, x, y, groups, folds, val, seed):
+  """(the recipe of lowest held-out error among `candidates` {label: recipe}, its
+  cross-validation, table {label: held-out error}); the error sums each output's held-out
+  MSE over its variance."""
   spread = np.var(y, axis=0)
   spread = np.where(spread > 0, spread, 1.0)
   runs, table = {}, {}
-  for w in widths:
-    cfg = dataclasses.replace(recipe.config, hidden=int(w))
-    cfg.validate()
-    cand = dataclasses.replace(recipe, config=cfg)
-    runs[str(int(w))] = (cand, cross_validate(cand, x, y, groups, folds, val, seed))
-    table[str(int(w))] = float(np.sum(np.square(runs[str(int(w))][1][2]["cv_rmse"]) / spread))
+  for label, cand in candidates.items():
+    runs[label] = (cand, cross_validate(cand, x, y, groups, folds, val, seed))
+    table[label] = float(np.sum(np.square(runs[label][1][2]["cv_rmse"]) / spread))
   best = select.lowest(table)
   return runs[best][0], runs[best][1], table
+
+
+def width_grid(recipe: NetworkRecipe, choices) -> dict:
+  """{width: the recipe at that many hidden units} (`--hidden auto`)."""
+  out = {}
+  for w in choices:
+    cfg = dataclasses.replace(recipe.config, hidden=int(w))
+    cfg.validate()
+    out[str(int(w))] = dataclasses.replace(recipe, config=cfg)
+  return out
+
+
+def layer_grid(recipe: "DeepRecipe", choices) -> dict:
+  """{"64x64": the recipe with those hidden layers} (the perceptron's sizes)."""
+  return {"x".join(map(str, layers)): dataclasses.replace(
+      recipe, config=dataclasses.replace(recipe.config, layers=tuple(layers)))
+      for layers in choices}
 
 
 def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
@@ -316,6 +358,7 @@ RECIPES = {
     "LSANN": NetworkRecipe,
     "NN": NetworkRecipe,
     "LSGP": ResidualRecipe,
+    "MLP": DeepRecipe,
 }
 # the methods that are LS plus a family fitted on its residual, and that family
 RESIDUAL_FAMILIES = {"LSGP": "gp"}
@@ -340,6 +383,9 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
     return PolyRecipe(degree, ridge)
   if kind in RESIDUAL_FAMILIES:
     return ResidualRecipe(RESIDUAL_FAMILIES[kind], options["gp"])
+  if kind == "MLP":
+    settings["ensemble"] = options["ensemble"]
+    return DeepRecipe(options["deep"], options["ensemble"])
   if kind in ("LS", "POLY"):
     degree = options["degree"] if kind == "POLY" else 1
     if kind == "POLY":
@@ -353,7 +399,7 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
 def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fraction=0.15,
         seed=0, progress=None, degree=3, snapshots=(), val_block=None, ensemble=1, inputs=None,
         outputs=None, input_units=None, output_units=None, groups=None, folds=0, cross=False,
-        ridge=None, widths=(), net_inputs=None, gp=None):
+        ridge=None, widths=(), net_inputs=None, gp=None, deep=None, layers=None):
   """`calibrate.estimators.fit` (its docstring says what each option does)."""
   counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
                          net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
@@ -366,15 +412,18 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
   parts = splits.folds(groups, folds, seed) if folds else []
   how = recipe(kind.value, dict(cross=cross, ridge=ridge, degree=degree, config=config,
                                 ensemble=ensemble, net_inputs=net_inputs, snapshots=snapshots,
-                                gp=gp),
+                                gp=gp, deep=deep),
                settings, counts, forces, parts)
   val = Validation(val_fraction, val_block)
   cv = None
   if isinstance(how, NetworkRecipe):
     warn_few_states(counts.shape[1], forces, how.config)
     if widths and folds:
-      how, cv, table = choose_width(how, counts, forces, groups, folds, val, seed, widths)
+      how, cv, table = choose(width_grid(how, widths), counts, forces, groups, folds, val,
+                              seed)
       settings.update(config=dataclasses.asdict(how.config), width_cv=table)
+  if isinstance(how, DeepRecipe):
+    how, cv = _deep_layers(how, layers, counts, forces, groups, folds, val, seed, settings)
   where = groups if groups is not None else len(counts)
   fitted = how.fit(counts, forces, where, val, seed, linear_fit, progress)
   extra = {}
@@ -388,6 +437,25 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
          zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
              fitted.trainings)]
   return out[0] if len(out) == 1 else combine(out)
+
+
+def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settings):
+  """(the perceptron's recipe at its layers, their cross-validation or None): `layers` None
+  chooses among `deep.GRID` on the held-out groups (when there are folds)."""
+  from calibrate.parts import deep
+  cv = None
+  if layers is not None:
+    how = dataclasses.replace(how, config=dataclasses.replace(
+        how.config or deep.DeepConfig(), layers=tuple(int(w) for w in layers)))
+  elif folds:
+    how, cv, table = choose(layer_grid(dataclasses.replace(
+        how, config=how.config or deep.DeepConfig()), deep.GRID), x, y, groups, folds, val,
+        seed)
+    settings["layers_cv"] = table
+  config = how.config or deep.DeepConfig()
+  config.validate()
+  settings["deep"] = dataclasses.asdict(config)
+  return dataclasses.replace(how, config=config), cv
 
 
 def combine(members):
@@ -412,8 +480,9 @@ AUTO = {
     "LSANN": (Kind.LSANN, {}),
     "NN": (Kind.NN, {}),
     "LSGP": (Kind.LSGP, {}),
+    "MLP": (Kind.MLP, {}),
 }
-AUTO_CANDIDATES = ("LS", "POLY-CH", "POLY", "LSANN", "NN")
+AUTO_CANDIDATES = ("LS", "POLY-CH", "POLY", "LSANN", "NN", "MLP")
 
 
 def candidate_name(candidate) -> str:

@@ -14,7 +14,7 @@ METHODS = tuple(parts.METHODS)
 # median % error counts samples above these magnitudes (the shell paper's: 0.2 N, 10 mN m)
 THRESHOLDS = {"N": 0.2, "N m": 0.01, "Nm": 0.01}
 # the model options' defaults, filled in after `check_options` has seen what was given
-DEFAULTS = {"hidden": 10, "weight_decay": 0.0, "degree": 3, "ensemble": 1}
+DEFAULTS = {"hidden": 10, "degree": 3, "ensemble": 1}
 
 
 def check_options(args, method: str) -> None:
@@ -120,12 +120,18 @@ def training_args(p: argparse.ArgumentParser) -> None:
   p.add_argument("--hidden", type=hidden, default=None,
                  help="hidden units (default 10, the paper's), or 'auto': the width of "
                       f"{', '.join(map(str, WIDTHS))} with the lowest held-out error")
+  p.add_argument("--layers", type=layers, default=None, metavar="auto|W[,W]",
+                 help="mlp (also within auto): the perceptron's hidden layers, e.g. 64,64; "
+                      "default auto: one or two layers of 16 to 128 units, chosen on held-out "
+                      "groups")
   p.add_argument("--weight-decay", type=float, default=None,
                  help="networks: the penalty lambda |w|^2 on the (scaled) weights, for data "
-                      "with few distinct load states (default 0, trainlm's)")
+                      "with few distinct load states (default 0, trainlm's); mlp: AdamW's "
+                      "decoupled decay (default 1e-4, scikit-learn's alpha)")
   p.add_argument("--epochs", type=int, default=None,
                  help="epoch cap (default 1000, trainlm's); gru: the cap on Adam steps "
-                      "(default 3000)")
+                      "(default 3000); mlp: the cap on held-out checks, 50 AdamW steps "
+                      "apart (default 300)")
   p.add_argument("--degree", type=int, default=None,
                  help="poly: the highest degree (default 3); with cross-validation the degree "
                       "1..this and the ridge weight are chosen on held-out groups")
@@ -174,9 +180,33 @@ def net_config(args):
   auto = args.hidden == "auto"
   config = mlp.LMConfig(hidden=10 if auto else args.hidden,
                         epochs=1000 if args.epochs is None else args.epochs,
-                        weight_decay=args.weight_decay)
+                        weight_decay=args.weight_decay or 0.0)
   config.validate()
   return config, WIDTHS if auto else ()
+
+
+def deep_options(args) -> dict:
+  """The perceptron's `fit` options: its settings (--epochs as its cap on held-out checks,
+  --weight-decay) and its layers (None: chosen on held-out groups)."""
+  from calibrate.parts import deep
+  given = {k: v for k, v in (("epochs", args.epochs), ("weight_decay", args.weight_decay))
+           if v is not None}
+  config = deep.DeepConfig(**given)
+  config.validate()
+  return {"deep": config, "layers": None if args.layers in (None, "auto") else args.layers}
+
+
+def layers(text: str):
+  """--layers: 'auto' or one or two widths, e.g. 64,64."""
+  if text.strip().lower() == "auto":
+    return "auto"
+  try:
+    out = tuple(int(w) for w in text.split(","))
+  except ValueError:
+    raise argparse.ArgumentTypeError(f"{text!r} is not 'auto' or widths, e.g. 64,64") from None
+  if not 1 <= len(out) <= 2 or not all(1 <= w <= 512 for w in out):
+    raise argparse.ArgumentTypeError(f"{text!r}: one or two hidden layers of 1 to 512 units")
+  return out
 
 
 def gru_config(args):
@@ -291,6 +321,7 @@ def fit_auto(args, x, y, groups, names):
   config, widths = net_config(args)
   return estimators.fit_auto(
       x, y, groups, args.folds, config=config, widths=widths, seed=args.seed,
+      **deep_options(args),
       val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
       progress=quiet if args.no_progress else progress_bar("training"), **names)
 

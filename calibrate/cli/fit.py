@@ -16,10 +16,12 @@ def add_parser(sub) -> None:
                  metavar="{" + ",".join(common.METHODS) + "}",
                  help="ls: linear least squares; poly: polynomial with cross terms; "
                       "lsann: LS plus a network on its residual; nn: the network alone; "
+                      "mlp: LS plus a perceptron of one or two layers (chosen on held-out "
+                      "groups) trained by AdamW on its residual; "
                       "gru: LS plus a small recurrent network (GRU) on its residual, "
                       "reading the inputs' past (needs the time column); lsgp: LS plus a "
                       "Gaussian process on its residual; auto: ls, each channel's powers "
-                      "(POLY-CH), poly, lsann and nn on the same held-out groups, the best "
+                      "(POLY-CH), poly, lsann, nn and mlp on the same held-out groups, the best "
                       "kept per output")
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                  help="where to write the estimator (default estimator.npz)")
@@ -53,7 +55,8 @@ def run(args) -> int:
   shared = dict(config=config, widths=widths, val_fraction=args.val_fraction,
                 degree=args.degree, ensemble=args.ensemble, progress=progress,
                 groups=groups, folds=args.folds if groups.count >= 2 else 0,
-                cross=args.method == "poly" and not args.per_channel)
+                cross=args.method == "poly" and not args.per_channel,
+                **(common.deep_options(args) if args.method == "mlp" else {}))
   kind = estimators.Kind(args.method.upper())
   try:
     if args.dt is None:
@@ -93,6 +96,10 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     print(f"network width {info.settings['config']['hidden']} (held-out error, each output's "
           f"MSE over its variance: " + ", ".join(f"{w}: {v:.3g}" for w, v in table.items())
           + ")")
+  if "layers_cv" in info.settings:
+    print(f"perceptron layers {'x'.join(map(str, info.settings['deep']['layers']))} "
+          f"(held-out error, each output's MSE over its variance: " + ", ".join(
+              f"{w}: {v:.3g}" for w, v in info.settings["layers_cv"].items()) + ")")
   if info.settings.get("cross"):
     print(poly_lines(info.settings))
   if v:
@@ -111,8 +118,8 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
                                             zip(info.outputs, between, units))
             + ("; more recordings narrow it" if g < 8 else ""))
     if v.get("ls_only"):
-      print(f"LSANN keeps only its LS stage on {', '.join(v['ls_only'])}: its network did not "
-            f"beat the LS stage on held-out groups there")
+      print(f"{est.kind.value} keeps only its LS stage on {', '.join(v['ls_only'])}: its "
+            f"network did not beat the LS stage on held-out groups there")
   else:
     print("no cross-validation (--folds 0, or a single group): no interval; the validation "
           "residual sd " + ", ".join(f"{n} {s:.4g} {u}" for n, s, u in
@@ -129,6 +136,13 @@ def training_lines(est, args, groups) -> None:
     print(f"training stopped: {len(stops)} networks ({'; '.join(why)}), after "
           f"{epochs.min()}-{epochs.max()} epochs (median {np.median(epochs):.0f}), "
           f"{sum(t.seconds for t in stops):.1f} s in all")
+  elif stops and est.kind.value == "MLP":  # AdamW: held-out checks `steps` apart
+    deep = est.info.settings["deep"]
+    why = {"VALIDATION": f"no better held-out error in {deep['patience']} checks",
+           "MAX_EPOCHS": "the cap on checks"}
+    print("training stopped: " + "; ".join(
+        f"{why[t.stop.name]} after {t.epochs * deep['steps']} AdamW steps ({t.seconds:.1f} "
+        f"s), the weights of step {t.best_epoch * deep['steps']} kept" for t in stops))
   elif stops and est.rnn is not None:  # a recurrent network: Adam steps, held-out checks
     t = stops[0]
     why = "the step cap" if t.stop.name == "MAX_EPOCHS" else \
@@ -141,7 +155,7 @@ def training_lines(est, args, groups) -> None:
   if stops:
     what = "networks never trained on their" if len(stops) > 1 else "network never trained on its"
     print(f"the {what} early-stopping hold-out ({args.val_fraction:.0%} of the samples, "
-          f"{'whole recordings' if groups.how == 'recordings' else groups.how}): it only "
+          f"{'whole recordings' if groups.how == 'recordings' else groups.how}), which only "
           f"chose when to stop")
 
 

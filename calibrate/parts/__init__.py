@@ -19,6 +19,7 @@ FAMILIES = {
     "gru": ("calibrate.parts.gru", "GRU"),
     "memory": ("calibrate.parts.memory", "Memory"),
     "gp": ("calibrate.parts.gp", "GP"),
+    "deep": ("calibrate.parts.deep", "Deep"),
 }
 
 
@@ -37,6 +38,8 @@ OPTIONS = {
     "gru": {"--hidden": "hidden", "--epochs": "steps"},
     "memory": {},
     "gp": {},
+    "deep": {"--layers": "layers", "--epochs": "epochs", "--weight-decay": "weight_decay",
+             "--ensemble": None},
 }
 
 # each method of `python -m calibrate fit --method` and the families it is built from
@@ -46,8 +49,9 @@ METHODS = {
     "lsann": ("linear", "mlp"),
     "nn": ("mlp",),
     "gru": ("linear", "gru"),
-    "auto": ("linear", "poly", "mlp"),
+    "auto": ("linear", "poly", "mlp", "deep"),
     "lsgp": ("linear", "gp"),
+    "mlp": ("linear", "deep"),
 }
 
 

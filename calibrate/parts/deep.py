@@ -1,0 +1,279 @@
+"""A multilayer perceptron of one or two tanh hidden layers trained by AdamW, what users
+reach for in a few lines (scikit-learn's `MLPRegressor(64, 64)`, early stopping).
+
+The paper's network (`calibrate.parts.mlp`: one layer of 10, Levenberg-Marquardt) forms
+J^T J, whose size grows with the square of the weights: at 64x64 (4,800 weights) that is
+23 M entries per step. A first-order method does not: AdamW (Loshchilov & Hutter 2019,
+decoupled weight decay) on minibatches drawn with replacement, stopped early on a held-out
+set whose error is checked every `DeepConfig.steps` steps, the weights of the best check
+kept. Inputs and outputs are standardised (mean, standard deviation).
+
+Everything is float64 (JAX's 64-bit types on for the duration of a call). The training
+data are padded to the next power of two and the batches drawn from the rows in use, so
+one compiled step serves every fold of similar size.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from calibrate.parts import linear
+from calibrate.parts.base import Part, check_shapes
+from calibrate.parts.mlp import Stop, TrainResult, float64
+from util import errors
+
+# the layer sizes grouped cross-validation chooses among (`methods.choose`): one or two
+# hidden layers of 16 to 128 units, scikit-learn's default (100,) and the (64, 64) users write
+GRID = ((16,), (64,), (32, 32), (64, 64), (128, 128))
+
+
+@dataclasses.dataclass(frozen=True)
+class DeepConfig:
+  """AdamW settings; the defaults are scikit-learn `MLPRegressor`'s where it has one.
+
+  Attributes:
+    layers: hidden units per layer (one or two layers, 1 to 512 units each).
+    learning_rate: Adam's step size (1e-3, as scikit-learn's and Kingma & Ba's).
+    weight_decay: decoupled decay of the weights per unit learning rate (1e-4, as
+      scikit-learn's alpha); biases are not decayed.
+    batch: samples per step (256; scikit-learn's min(200, N)).
+    steps: steps between held-out checks (an "epoch" here; 50).
+    epochs: the cap on checks (300: 15,000 steps).
+    patience: checks without a better held-out error that stop training (10, scikit-learn's
+      n_iter_no_change).
+  """
+  layers: tuple = (64, 64)
+  learning_rate: float = 1e-3
+  weight_decay: float = 1e-4
+  batch: int = 256
+  steps: int = 50
+  epochs: int = 300
+  patience: int = 10
+
+  def validate(self) -> None:
+    """Raises SettingError naming the first setting out of range."""
+    if not (1 <= len(self.layers) <= 2 and all(isinstance(w, (int, np.integer)) and
+                                               1 <= w <= 512 for w in self.layers)):
+      raise errors.SettingError(f"layers={self.layers!r} is out of range: one or two hidden "
+                                f"layers of 1 to 512 units")
+    for name, lo, hi in (("learning_rate", 1e-6, 1.0), ("weight_decay", 0.0, 1.0)):
+      value = getattr(self, name)
+      if not (np.isfinite(value) and lo <= value <= hi):
+        raise errors.SettingError(f"{name}={value!r} is out of range: allowed [{lo:g}, {hi:g}]")
+    for name, hi in (("batch", 65536), ("steps", 100000), ("epochs", 100000),
+                     ("patience", 100000)):
+      value = getattr(self, name)
+      if not (isinstance(value, (int, np.integer)) and 1 <= value <= hi):
+        raise errors.SettingError(f"{name}={value!r} is out of range: allowed integers 1 to "
+                                  f"{hi}")
+
+
+Config = DeepConfig  # the family's settings by the name `methods.ResidualRecipe` reads
+
+
+@dataclasses.dataclass(frozen=True)
+class Deep(Part):
+  """A fitted perceptron: (weights (out, in), biases (out,)) per layer, tanh between them,
+  and the inputs' and outputs' standardisation (mean, sd per column)."""
+  weights: tuple
+  biases: tuple
+  x_mean: np.ndarray
+  x_sd: np.ndarray
+  y_mean: np.ndarray
+  y_sd: np.ndarray
+
+  NAME, C_TAG, LABEL = "deep", "MLP", "MLP"
+  RESIDUAL_LABEL = "MLP"  # LS plus this network on its residual
+
+  @float64
+  def predict(self, x: np.ndarray) -> np.ndarray:
+    x = linear.check_array(x, "inputs", self.n_inputs)
+    s = _forward(tuple(zip(self.weights, self.biases)), jnp.asarray((x - self.x_mean) / self.x_sd))
+    return np.asarray(s) * self.y_sd + self.y_mean
+
+  @property
+  def n_inputs(self) -> int:
+    return self.weights[0].shape[1]
+
+  @property
+  def n_outputs(self) -> int:
+    return self.weights[-1].shape[0]
+
+  @property
+  def tame(self) -> bool:
+    return False
+
+  def without_outputs(self, outputs: np.ndarray) -> "Deep":
+    """The network with its contribution removed on `outputs` (bool (A,))."""
+    return dataclasses.replace(self, y_sd=np.where(outputs, 0.0, self.y_sd),
+                               y_mean=np.where(outputs, 0.0, self.y_mean))
+
+  def leaves(self) -> tuple[dict, dict]:
+    arrays = {"x_mean": self.x_mean, "x_sd": self.x_sd, "y_mean": self.y_mean,
+              "y_sd": self.y_sd}
+    for k, (w, b) in enumerate(zip(self.weights, self.biases)):
+      arrays[f"w{k}"], arrays[f"b{k}"] = w, b
+    return arrays, {"layers": len(self.weights)}
+
+  @classmethod
+  def from_leaves(cls, spec, arrays, children=None) -> "Deep":
+    n = int(spec["layers"])
+    if not 2 <= n <= 3 or any(np.ndim(arrays.get(f"w{k}")) != 2 for k in range(n)):
+      raise ValueError("its layers are not 2 or 3 weight matrices")
+    shapes = [np.shape(arrays[f"w{k}"]) for k in range(n)]
+    c, a = shapes[0][1], shapes[-1][0]
+    want = {"x_mean": (c,), "x_sd": (c,), "y_mean": (a,), "y_sd": (a,)}
+    for k in range(n):
+      want[f"b{k}"] = (shapes[k][0],)
+      if k:
+        want[f"w{k}"] = (shapes[k][0], shapes[k - 1][0])
+    check_shapes("perceptron", arrays, want)
+    return cls(tuple(arrays[f"w{k}"] for k in range(n)),
+               tuple(arrays[f"b{k}"] for k in range(n)), arrays["x_mean"], arrays["x_sd"],
+               arrays["y_mean"], arrays["y_sd"])
+
+  def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
+    """Standardisation, the tanh layers, the linear output, added to acc[]."""
+    c = self.n_inputs
+    sizes = [c] + [w.shape[0] for w in self.weights]
+    xm, xi = em.array(f"{tag}_XMEAN", self.x_mean), em.array(f"{tag}_XINV", 1.0 / self.x_sd)
+    ym, ys = em.array(f"{tag}_YMEAN", self.y_mean), em.array(f"{tag}_YSD", self.y_sd)
+    hidden = sizes[1:-1]
+    em.costs(macs=sum(m * n + n for m, n in zip(sizes[:-1], sizes[1:])) + c + sizes[-1],
+             tanh=sum(hidden), stack=4 * (c + 2 * max(hidden)))
+    code = ["  { /* perceptron: standardise, tanh layers, linear output */",
+            f"    float h0[{max(sizes[:-1])}], h1[{max(sizes[:-1])}];",
+            f"    for (int i = 0; i < {c}; ++i) h0[i] = (x[i] - {xm}[i]) * {xi}[i];"]
+    src, dst = "h0", "h1"
+    for k, (m, n) in enumerate(zip(sizes[:-1], sizes[1:])):
+      w, b = em.array(f"{tag}_W{k}", self.weights[k]), em.array(f"{tag}_B{k}", self.biases[k])
+      last = k == len(self.weights) - 1
+      code += [f"    for (int j = 0; j < {n}; ++j) {{",
+               f"      float v = {b}[j];",
+               f"      for (int i = 0; i < {m}; ++i) v += {w}[j * {m} + i] * {src}[i];",
+               f"      {acc}[j] += v * {ys}[j] + {ym}[j];" if last else
+               f"      {dst}[j] = tanhf(v);",
+               "    }"]
+      src, dst = dst, src
+    em.code += code + ["  }"]
+
+
+def _forward(params, x):
+  h = x
+  for w, b in params[:-1]:
+    h = jnp.tanh(h @ w.T + b)
+  w, b = params[-1]
+  return h @ w.T + b
+
+
+def _init(key, sizes):
+  """Glorot-uniform weights (scikit-learn's for tanh), zero biases."""
+  params = []
+  for m, n in zip(sizes[:-1], sizes[1:]):
+    key, k = jax.random.split(key)
+    limit = np.sqrt(6.0 / (m + n))
+    params.append((jax.random.uniform(k, (n, m), jnp.float64, -limit, limit),
+                   jnp.zeros(n, jnp.float64)))
+  return tuple(params)
+
+
+B1, B2, EPS = 0.9, 0.999, 1e-8  # Adam's moment decays and floor (Kingma & Ba)
+
+
+@functools.lru_cache(maxsize=None)
+def _epoch_fn(config: DeepConfig):
+  """One jitted check interval: `steps` AdamW steps on batches drawn from the first n rows."""
+  lr, wd = config.learning_rate, config.weight_decay
+
+  def loss(params, xb, yb):
+    return jnp.mean((_forward(params, xb) - yb) ** 2)
+
+  grad = jax.grad(loss)
+
+  def epoch(state, key, x, y, n):
+    def step(carry, k):
+      params, m, v, t = carry
+      idx = jax.random.randint(k, (config.batch,), 0, n)
+      g = grad(params, x[idx], y[idx])
+      t = t + 1
+      m = jax.tree_util.tree_map(lambda a, b: B1 * a + (1 - B1) * b, m, g)
+      v = jax.tree_util.tree_map(lambda a, b: B2 * a + (1 - B2) * b * b, v, g)
+      c1, c2 = 1 - B1 ** t, 1 - B2 ** t
+      params = tuple(
+          (w - lr * ((mw / c1) / (jnp.sqrt(vw / c2) + EPS) + wd * w),
+           b - lr * (mb / c1) / (jnp.sqrt(vb / c2) + EPS))
+          for (w, b), (mw, mb), (vw, vb) in zip(params, m, v))
+      return (params, m, v, t), None
+    out, _ = jax.lax.scan(step, state, jax.random.split(key, config.steps))
+    return out
+
+  return jax.jit(epoch)
+
+
+@jax.jit
+def _mse(params, x, y, mask):
+  """(A,) the mean squared error per output over the rows where `mask` is 1."""
+  return jnp.sum(((_forward(params, x) - y) ** 2) * mask[:, None], axis=0) / jnp.sum(mask)
+
+
+def _padded(a: np.ndarray) -> np.ndarray:
+  """`a` with zero rows to the next power of two (one compiled step per size class)."""
+  size = 1 << max(int(np.ceil(np.log2(max(len(a), 1)))), 0)
+  return np.vstack([a, np.zeros((size - len(a), a.shape[1]))])
+
+
+@float64
+def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
+          config: DeepConfig = DeepConfig(), seed: int = 0) -> TrainResult:
+  """Trains on (x, y) (N, C), (N, A), stopping on the held-out (x_val, y_val); the weights of
+  the check with the lowest held-out MSE are kept."""
+  config.validate()
+  x, y = linear.check_pair(x, y)
+  if len(x_val) == 0:
+    raise errors.DataError("the perceptron's early stopping needs held-out samples")
+  x_mean, x_sd = x.mean(axis=0), x.std(axis=0)
+  x_sd = np.where(x_sd > 0, x_sd, 1.0)
+  y_mean, y_sd = y.mean(axis=0), y.std(axis=0)
+  y_sd = np.where(y_sd > 0, y_sd, 1.0)
+  xs, ys = _padded((x - x_mean) / x_sd), _padded((y - y_mean) / y_sd)
+  xv, yv = _padded((x_val - x_mean) / x_sd), _padded((y_val - y_mean) / y_sd)
+  mask = np.zeros(len(xv))
+  mask[:len(x_val)] = 1.0
+  key = jax.random.PRNGKey(seed % 2 ** 32)
+  key, k0 = jax.random.split(key)
+  params = _init(k0, (x.shape[1],) + tuple(int(w) for w in config.layers) + (y.shape[1],))
+  zeros = jax.tree_util.tree_map(jnp.zeros_like, params)
+  state = (params, zeros, zeros, jnp.zeros((), jnp.float64))
+  epoch = _epoch_fn(config)
+  t0 = time.perf_counter()
+  keys = jax.random.split(key, config.epochs)
+  state = epoch(state, keys[0], xs, ys, len(x))  # compiles
+  compile_s = time.perf_counter() - t0
+  # held out in output units per output; the checks compare their sum over the outputs'
+  # variances (scale-free)
+  val = [np.asarray(_mse(p, xv, yv, mask)) for p in (params, state[0])]
+  best, best_k, stop = state[0], 1, Stop.MAX_EPOCHS
+  t0 = time.perf_counter()
+  for k in range(1, config.epochs):
+    if k - best_k >= config.patience:
+      stop = Stop.VALIDATION
+      break
+    state = epoch(state, keys[k], xs, ys, len(x))
+    val.append(np.asarray(_mse(state[0], xv, yv, mask)))
+    if not np.isfinite(val[-1]).all():
+      raise errors.DataError("the perceptron's training diverged (held-out error not finite): "
+                             "lower its learning rate")
+    if val[-1].sum() < val[best_k].sum():
+      best, best_k = state[0], k + 1
+  net = Deep(tuple(np.asarray(w) for w, _ in best), tuple(np.asarray(b) for _, b in best),
+             x_mean, x_sd, y_mean, y_sd)
+  val_mse = np.mean(np.array(val) * y_sd ** 2, axis=1)
+  return TrainResult(net, len(val) - 1, stop, np.full_like(val_mse, np.nan), val_mse,
+                     time.perf_counter() - t0, compile_s, best_k)

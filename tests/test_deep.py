@@ -1,0 +1,65 @@
+"""The perceptron trained by AdamW (`calibrate.parts.deep`): its forward pass against numpy,
+what it learns that LS cannot, the layers grouped cross-validation keeps, and its file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from calibrate import estimators, splits
+from calibrate.parts import deep
+
+
+def _smooth(n=3000, seed=0):
+  """Six channels and three outputs no plane reaches: a product, a square, a saturation."""
+  rng = np.random.default_rng(seed)
+  z = rng.uniform(-1, 1, (n, 6))
+  y = np.column_stack([np.sin(3 * z[:, 0]) * z[:, 1], z[:, 2] ** 2 - z[:, 3],
+                       np.tanh(2 * z[:, 4] + z[:, 5])])
+  return z * 1000 + 2000, y
+
+
+def test_the_forward_pass_is_tanh_layers_of_its_weights():
+  rng = np.random.default_rng(1)
+  w = (rng.normal(size=(5, 3)), rng.normal(size=(4, 5)), rng.normal(size=(2, 4)))
+  b = tuple(rng.normal(size=len(m)) for m in w)
+  net = deep.Deep(w, b, np.array([1.0, 2, 3]), np.array([2.0, 1, 4]), np.array([5.0, -1]),
+                  np.array([3.0, 0.5]))
+  x = rng.normal(size=(20, 3))
+  h = np.tanh(((x - [1, 2, 3]) / [2, 1, 4]) @ w[0].T + b[0])
+  h = np.tanh(h @ w[1].T + b[1])
+  want = (h @ w[2].T + b[2]) * [3.0, 0.5] + [5.0, -1]
+  np.testing.assert_allclose(net.predict(x), want, rtol=1e-12)
+
+
+def test_adamw_learns_what_ls_cannot_on_held_out_data():
+  x, y = _smooth()
+  cfg = deep.DeepConfig(layers=(32,), epochs=60)
+  est = estimators.fit("MLP", x[:2500], y[:2500], deep=cfg, seed=3)
+  ls = estimators.fit("LS", x[:2500], y[:2500])
+  err = np.sqrt(np.mean((est.predict(x[2500:]) - y[2500:]) ** 2, axis=0))
+  err_ls = np.sqrt(np.mean((ls.predict(x[2500:]) - y[2500:]) ** 2, axis=0))
+  assert (err < 0.2 * err_ls).all(), (err, err_ls)
+  assert tuple(est.info.settings["deep"]["layers"]) == (32,)
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_the_layers_kept_are_those_of_the_lowest_held_out_error(tmp_path):
+  x, y = _smooth(1200)
+  groups = splits.groups(len(x), "recordings", np.repeat(np.arange(6), 200))
+  est = estimators.fit("MLP", x, y, groups=groups, folds=2, seed=0,
+                       deep=deep.DeepConfig(epochs=8))
+  table = est.info.settings["layers_cv"]
+  assert set(table) == {"x".join(map(str, g)) for g in deep.GRID}
+  assert "x".join(map(str, est.info.settings["deep"]["layers"])) == min(table, key=table.get)
+  est.save(tmp_path / "m.npz")
+  back = estimators.Estimator.load(tmp_path / "m.npz")
+  assert back.kind is estimators.Kind.MLP
+  np.testing.assert_array_equal(back.predict(x), est.predict(x))
+
+
+def test_a_layer_setting_out_of_range_is_named():
+  with pytest.raises(Exception, match="layers=.* one or two hidden layers"):
+    deep.DeepConfig(layers=(8, 8, 8)).validate()
+  with pytest.raises(Exception, match="learning_rate"):
+    deep.DeepConfig(learning_rate=2.0).validate()
