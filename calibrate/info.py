@@ -42,6 +42,8 @@ class Info:
       only its LS stage.
     output_lo, output_hi: (A,) the training range of every output (None in older files):
       truth beyond it is target extrapolation, where every method under-reaches.
+    interval_growth: (A,) how the interval widens beyond the training box (`half_width_at`:
+      the half-width times 1 + growth x the distance); None in older files (no growth).
   """
   inputs: tuple[str, ...]
   outputs: tuple[str, ...]
@@ -59,6 +61,22 @@ class Info:
   output_lo: Optional[np.ndarray] = None
   output_hi: Optional[np.ndarray] = None
   interval_offsets: Optional[np.ndarray] = None
+  interval_growth: Optional[np.ndarray] = None
+
+  def distance(self, x: np.ndarray) -> np.ndarray:
+    """(N,) how far each row of inputs (N, C) lies beyond the training box, in units of each
+    input's training range (Euclidean over the inputs; 0 inside the box)."""
+    return box_distance(x, self.input_lo, self.input_hi)
+
+  def half_width_at(self, level: float, x: np.ndarray) -> np.ndarray:
+    """(N, A) the interval's half-width at `level` for each row of inputs (N, C): inside the
+    training box `half_width`; beyond it widened by 1 + `interval_growth` x the distance
+    (`distance`). Held-out groups inside the box say nothing of the error outside it, where
+    an estimator extrapolates: measured as the folds' held-out samples beyond their own
+    training fold's box (`held_out`)."""
+    half = self.half_width(level)
+    growth = np.zeros(len(half)) if self.interval_growth is None else self.interval_growth
+    return half * (1.0 + np.outer(self.distance(x), growth))
 
   def half_width(self, level: float) -> np.ndarray:
     """(A,) half-width of the interval at `level` (0.5 to 0.999), per output.
@@ -81,18 +99,11 @@ class Info:
     if not 0.5 <= level <= 0.999:
       raise errors.SettingError(f"interval level {level!r} is out of range: allowed 0.5 to "
                                 f"0.999")
-    p = min(1.0, np.ceil((self.interval_n + 1) * level) / self.interval_n)
-    within = np.array([np.interp(p, INTERVAL_GRID, q) for q in self.interval_abs.T])
-    return np.hypot(within, self.between_width(level))
+    return conformal_half(self.interval_abs, self.interval_n, self.interval_offsets, level)
 
   def between_width(self, level: float) -> np.ndarray:
     """(A,) the between-recordings part of `half_width` (zeros in older files)."""
-    offsets = self.interval_offsets
-    if offsets is None or len(offsets) < 2:
-      return np.zeros(len(self.outputs))
-    import scipy.stats
-    t = scipy.stats.t.ppf(0.5 + level / 2, df=len(offsets))
-    return t * np.sqrt(np.mean(offsets ** 2, axis=0))
+    return between(self.interval_offsets, len(self.outputs), level)
 
   def to_json(self) -> dict:
     return {"inputs": list(self.inputs), "outputs": list(self.outputs),
@@ -101,7 +112,7 @@ class Info:
             "interval_n": self.interval_n, "validation": self.validation}
 
   ARRAYS = ("input_lo", "input_hi", "residual_sd", "interval_abs", "output_lo",
-            "output_hi", "interval_offsets")
+            "output_hi", "interval_offsets", "interval_growth")
 
   def arrays(self, prefix: str = "info_") -> dict[str, np.ndarray]:
     """Its arrays by name (those it holds), each name after `prefix`."""
@@ -120,7 +131,8 @@ class Info:
                 got["residual_sd"], int(head["samples"]), str(head["data_sha256"]),
                 dict(head["settings"]), got["interval_abs"],
                 int(head.get("interval_n", 0)), dict(head.get("validation", {})),
-                got["output_lo"], got["output_hi"], got["interval_offsets"])
+                got["output_lo"], got["output_hi"], got["interval_offsets"],
+                got["interval_growth"])
     c, a = len(info.inputs), len(info.outputs)
     if (len(info.input_units), info.input_lo.shape, info.input_hi.shape) != (c, (c,), (c,)) or \
        (len(info.output_units), info.residual_sd.shape) != (a, (a,)):
@@ -131,6 +143,8 @@ class Info:
     if info.interval_offsets is not None and (info.interval_offsets.ndim != 2
                                               or info.interval_offsets.shape[1] != a):
       raise ValueError("its interval's offsets do not fit its outputs")
+    if info.interval_growth is not None and info.interval_growth.shape != (a,):
+      raise ValueError("its interval's growth does not fit its outputs")
     return info
 
 
@@ -151,14 +165,80 @@ def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
                              "targets": np.asarray(forces, float)})
 
 
-def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict) -> dict:
-  """`Info`'s interval fields from held-out residuals (N, A) of grouped cross-validation."""
+def conformal_half(interval_abs: np.ndarray, n: int, offsets: Optional[np.ndarray],
+                   level: float) -> np.ndarray:
+  """(A,) `Info.half_width` from its fields: the within-recording conformal quantile and
+  the between-recordings part, added in quadrature."""
+  p = min(1.0, np.ceil((n + 1) * level) / n)
+  within = np.array([np.interp(p, INTERVAL_GRID, q) for q in interval_abs.T])
+  return np.hypot(within, between(offsets, interval_abs.shape[1], level))
+
+
+def between(offsets: Optional[np.ndarray], a: int, level: float) -> np.ndarray:
+  """(A,) how far a new recording's mean error may lie: Student's t at `level` with G
+  degrees of freedom times the RMS of the G groups' mean errors (zeros below 2 groups)."""
+  if offsets is None or len(offsets) < 2:
+    return np.zeros(a)
+  import scipy.stats
+  t = scipy.stats.t.ppf(0.5 + level / 2, df=len(offsets))
+  return t * np.sqrt(np.mean(offsets ** 2, axis=0))
+
+
+def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
+             distance: Optional[np.ndarray] = None) -> dict:
+  """`Info`'s interval fields from held-out residuals (N, A) of grouped cross-validation;
+  `distance` (N,): how far each held-out sample lay beyond its training fold's box
+  (`box_distance`), for the interval's growth there (None: no growth)."""
   # every sample its own group (the paper's split): no recording offsets to tell apart
   offsets = group_means(residual, groups.labels) if groups.how != "samples" else None
   within = residual if offsets is None else \
       residual - offsets[np.unique(groups.labels, return_inverse=True)[1]]
-  return dict(interval_abs=np.quantile(np.abs(within), INTERVAL_GRID, axis=0),
-              interval_n=len(residual), interval_offsets=offsets, validation=stats)
+  out = dict(interval_abs=np.quantile(np.abs(within), INTERVAL_GRID, axis=0),
+             interval_n=len(residual), interval_offsets=offsets, validation=stats)
+  if distance is not None:
+    half = conformal_half(out["interval_abs"], len(residual), offsets, GROWTH_LEVEL)
+    growth, beyond = interval_growth(np.abs(residual), distance, half)
+    out["interval_growth"] = growth
+    out["validation"] = {**stats, "interval_growth": growth.tolist(),
+                         "held_out_beyond_box": int(beyond)}
+  return out
+
+
+GROWTH_LEVEL = 0.95  # the level at which the growth is measured (and used at every level)
+GROWTH_MIN = 20  # held-out samples beyond their fold's box that measure the growth
+GROWTH_DEFAULT = 1.0  # with fewer: the half-width doubles one training range out (unmeasured)
+
+
+def interval_growth(abs_residual: np.ndarray, distance: np.ndarray, half: np.ndarray
+                    ) -> tuple[np.ndarray, int]:
+  """((A,) the growth, the held-out samples beyond the box it was measured on): the split-
+  conformal `GROWTH_LEVEL` quantile of (|r| / half - 1) / distance over the held-out
+  samples beyond their training fold's box, so that half x (1 + growth x distance) covers
+  that share of them; `GROWTH_DEFAULT` with fewer than `GROWTH_MIN` such samples."""
+  out = distance > 1e-9
+  n = int(out.sum())
+  if n < GROWTH_MIN:
+    return np.full(abs_residual.shape[1], GROWTH_DEFAULT), n
+  score = (abs_residual[out] / np.where(half > 0, half, 1.0) - 1.0) / distance[out, None]
+  k = min(n, int(np.ceil((n + 1) * GROWTH_LEVEL)))
+  return np.maximum(np.sort(score, axis=0)[k - 1], 0.0), n
+
+
+def box_distance(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+  """(N,) how far each row of `x` (N, C) lies beyond the box [lo, hi], each input in units
+  of its range (a constant input in its own units), Euclidean over the inputs."""
+  x = np.asarray(x, float)
+  span = np.where(hi > lo, hi - lo, 1.0)
+  over = np.maximum(np.maximum(lo - x, x - hi), 0.0) / span
+  return np.sqrt(np.sum(over ** 2, axis=1))
+
+
+def fold_distance(x: np.ndarray, parts) -> np.ndarray:
+  """(N,) for each sample, how far it lies beyond the box of the fold that held it out."""
+  out = np.zeros(len(x))
+  for tr, va in parts:
+    out[va] = box_distance(x[va], x[tr].min(axis=0), x[tr].max(axis=0))
+  return out
 
 
 def group_means(values: np.ndarray, labels: np.ndarray) -> np.ndarray:

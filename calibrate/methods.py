@@ -25,7 +25,7 @@ import numpy as np
 
 from calibrate import compose, parts, select, splits
 from calibrate.fitted import Estimator, Kind
-from calibrate.info import Info, data_digest, held_out, integer_counts
+from calibrate.info import Info, data_digest, fold_distance, held_out, integer_counts
 from calibrate.parts import linear, mlp
 from calibrate.parts import poly as poly_lib
 from util import errors
@@ -315,10 +315,12 @@ def infos(fitted: Fitted, x, y, settings: dict, named: dict, extra: dict) -> lis
   return [Info(residual_sd=sd, **base, **extra) for sd in fitted.sds]
 
 
-def interval_fields(residual, only, stats, groups, outputs) -> dict:
-  """`Info`'s interval and validation fields from a cross-validation."""
+def interval_fields(residual, only, stats, groups, outputs, distance=None) -> dict:
+  """`Info`'s interval and validation fields from a cross-validation (`distance`: each
+  held-out sample's beyond its training fold's box, `info.fold_distance`)."""
   return held_out(residual, groups, {**stats, "ls_only": [outputs[j]
-                                                          for j in np.flatnonzero(only)]})
+                                                          for j in np.flatnonzero(only)]},
+                  distance)
 
 
 def check(kind, counts, forces, *, seed, ensemble, net_inputs, degree, groups, folds):
@@ -432,7 +434,8 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
     if only.any():
       fitted = dataclasses.replace(fitted, parts=tuple(
           compose.Residual(p.base, p.residual.without_outputs(only)) for p in fitted.parts))
-    extra = interval_fields(residual, only, stats, groups, named["outputs"])
+    extra = interval_fields(residual, only, stats, groups, named["outputs"],
+                            fold_distance(counts, parts))
   out = [Estimator(kind, p, i, training=t) for p, i, t in
          zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
              fitted.trainings)]
@@ -546,6 +549,8 @@ def _auto_info(chosen, chosen_names, first: Info, table: dict) -> Info:
       interval_abs=np.column_stack([i.interval_abs[:, j] for j, i in zip(cols, infos)]),
       interval_offsets=None if infos[0].interval_offsets is None else np.column_stack(
           [i.interval_offsets[:, j] for j, i in zip(cols, infos)]),
+      interval_growth=None if infos[0].interval_growth is None else np.array(
+          [i.interval_growth[j] for j, i in zip(cols, infos)]),
       settings={"method": "AUTO", "candidates": list(table),
                 "seed": first.settings.get("seed"),
                 "integer_inputs": first.settings.get("integer_inputs")},

@@ -346,3 +346,49 @@ def test_weight_decay_shrinks_the_weights_and_zero_is_trainlm_exactly():
   np.testing.assert_array_equal(plain.net.w1, zero.net.w1)
   norm = [np.sum(r.net.w1 ** 2) + np.sum(r.net.w2 ** 2) for r in (plain, decayed)]
   assert norm[1] < 0.5 * norm[0], norm
+
+
+# --- intervals that know where they are: wider beyond the training box -------------------
+
+def test_the_growth_is_the_conformal_quantile_of_the_planted_scores():
+  """Held-out residuals exactly half x (1 + 2 d) beyond the box: the growth is 2; inside
+  the box (d = 0) nothing is measured; too few beyond it: the stated default."""
+  from calibrate import info as info_lib
+  d = np.linspace(0.01, 1.0, 200)
+  half = np.array([0.5, 3.0])
+  res = half * (1 + np.outer(d, [2.0, 0.0]))
+  growth, n = info_lib.interval_growth(np.vstack([res, np.zeros((50, 2))]),
+                                       np.concatenate([d, np.zeros(50)]), half)
+  np.testing.assert_allclose(growth, [2.0, 0.0], atol=1e-12)
+  assert n == 200
+  few, n = info_lib.interval_growth(res[:5], d[:5], half)
+  assert n == 5 and (few == info_lib.GROWTH_DEFAULT).all()
+  x = np.array([[0.5, 0.5], [1.5, 0.5], [-1.0, 2.0]])
+  np.testing.assert_allclose(info_lib.box_distance(x, np.zeros(2), np.ones(2)),
+                             [0.0, 0.5, np.hypot(1.0, 1.0)])
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_beyond_the_box_the_widened_interval_covers_what_the_flat_one_misses():
+  """A sensor whose response bends (a cube LS cannot follow), trained on loads that ramp
+  in time: the folds' end blocks lie beyond their training box and measure how the error
+  grows. On new loads past the training range, as far as the folds reached, the widened
+  interval covers >= 90 % where the flat one covers far less; inside the box both are the
+  same interval."""
+  rng = np.random.default_rng(5)
+  load = np.linspace(-1, 1, 3000)
+  x = np.column_stack([load, load ** 2 + 0.3 * load]) * 1000 + 2000
+  y = (load + 0.8 * load ** 3)[:, None] * 10 + rng.normal(0, 0.1, (3000, 1))
+  est = estimators.fit("LS", x, y, groups=splits.groups(3000, "blocks", block=300), folds=5)
+  assert est.info.validation["held_out_beyond_box"] >= 20
+  assert est.info.interval_growth[0] > 0
+  far = np.linspace(1.0, 1.2, 500)  # as far out as the end blocks reach (a tenth of the range)
+  xt = np.column_stack([far, far ** 2 + 0.3 * far]) * 1000 + 2000
+  yt = (far + 0.8 * far ** 3)[:, None] * 10
+  with warnings.catch_warnings():
+    warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+    err = np.abs(est.predict(xt) - yt)[:, 0]
+  flat = est.info.half_width(0.95)[0]
+  grown = est.info.half_width_at(0.95, xt)[:, 0]
+  assert (err <= grown).mean() >= 0.9 and (err <= flat).mean() < 0.6
+  np.testing.assert_array_equal(est.info.half_width_at(0.95, x[:10])[:, 0], flat)

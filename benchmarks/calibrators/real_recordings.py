@@ -191,10 +191,17 @@ def _ours(ctx, d: Data) -> dict:
     for name, row in list(table.items()) + [("auto", {"estimator": auto, "seconds": auto_s})]:
       est = row["estimator"]
       pred = est.predict(d.xt)
-      half = est.info.half_width(s.level)
+      half = est.info.half_width_at(s.level, d.xt)  # wider beyond the training box
       r = _scores(pred, d.yt)
       inside = np.abs(pred - d.yt) <= half
       r["coverage_pct"] = (100 * np.mean(inside, axis=0)).tolist()
+      # inputs beyond the training box: extrapolation, where the interval widens
+      far = est.info.distance(d.xt) > 0
+      r["inputs_out_of_box_pct"] = [float(100 * far.mean())] * len(d.axes)
+      r["coverage_in_box_pct"] = [float(100 * inside[~far, j].mean()) if (~far).any()
+                                  else float("nan") for j in range(len(d.axes))]
+      r["coverage_out_of_box_pct"] = [float(100 * inside[far, j].mean()) if far.any()
+                                      else float("nan") for j in range(len(d.axes))]
       # the interval is sized on the training range: beyond it (target extrapolation) it
       # cannot hold, so its coverage is given apart there
       beyond = (d.yt < d.y.min(axis=0)) | (d.yt > d.y.max(axis=0))
@@ -266,7 +273,8 @@ def run(ctx):
     _print(ctx, rig, d, results)
     data[rig] = {"what": d.what, "results": results}
     per_axis = ("nrmse_pct", "r2_pct", "coverage_pct", "coverage_in_range_pct",
-                "single_split_coverage_pct", "truth_beyond_training_pct")
+                "single_split_coverage_pct", "truth_beyond_training_pct",
+                "coverage_in_box_pct", "coverage_out_of_box_pct", "inputs_out_of_box_pct")
     rows += metrics.scored(rig, {m: {ax: {k: r[k][j] for k in per_axis if k in r}
                                      for j, ax in enumerate(d.axes)}
                                  for m, r in results.items()})
@@ -276,20 +284,39 @@ def run(ctx):
 
 def _print(ctx, rig: str, d: Data, results: dict) -> None:
   level = ctx.settings.level
+  w = 7 * len(d.axes)
   ctx.print(f"\n{d.what}")
   first = next(iter(results.values()))
-  ctx.print("test truth beyond the training range, % per axis: " + " ".join(
-      f"{v:.1f}" for v in first["truth_beyond_training_pct"]) + "; interval coverage there "
-      "excluded: " + "; ".join(f"{m} " + " ".join(f"{v:.1f}" for v in r["coverage_in_range_pct"])
-                               for m, r in results.items() if "coverage_in_range_pct" in r))
-  ctx.print(f"{'method':26s} {'NRMSE % per axis':>{7 * len(d.axes)}s}  "
-            f"{'in ' + format(level, '.0%') + ' interval, per axis':>{7 * len(d.axes)}s}  "
-            f"{'+-1.96 sd (paper split)':>{7 * len(d.axes)}s} {'fit s':>7s}")
+  far = next((r["inputs_out_of_box_pct"][0] for r in results.values()
+              if "inputs_out_of_box_pct" in r), float("nan"))
+  ctx.print(f"test inputs beyond the training box: {far:.1f} % of samples (the interval widens "
+            f"there); test truth beyond the training range, % per axis: "
+            + " ".join(f"{v:.1f}" for v in first.get("truth_beyond_training_pct", [])))
+  ctx.print(f"{'method':26s} {'NRMSE % per axis':>{w}s}  "
+            f"{'in ' + format(level, '.0%') + ' interval, in box':>{w}s}  "
+            f"{'beyond the box':>{w}s}  {'+-1.96 sd (paper split)':>{w}s} {'fit s':>7s}")
   for m, r in results.items():
-    blank = " " * (7 * len(d.axes) - 1)
-    cover = " ".join(f"{v:6.1f}" for v in r.get("coverage_pct", [])) or blank
-    naive = " ".join(f"{v:6.1f}" for v in r.get("single_split_coverage_pct", [])) or blank
-    ctx.print(f"{m:26s} " + " ".join(f"{v:6.2f}" for v in r["nrmse_pct"]) + f"  {cover}  "
-              f"{naive} {r['seconds']:7.1f}" + (f"  kept: {', '.join(r['chosen'])}"
-                                                  if "chosen" in r else ""))
+    def cols(key):
+      return " ".join(f"{v:6.1f}" for v in r.get(key, [])) or " " * (w - 1)
+    ctx.print(f"{m:26s} " + " ".join(f"{v:6.2f}" for v in r["nrmse_pct"])
+              + f"  {cols('coverage_in_box_pct')}  {cols('coverage_out_of_box_pct')}  "
+              f"{cols('single_split_coverage_pct')} {r['seconds']:7.1f}"
+              + (f"  kept: {', '.join(r['chosen'])}" if "chosen" in r else ""))
+  for line in ratios(results, d.axes):
+    ctx.print(line)
 
+
+def ratios(results: dict, axes) -> list[str]:
+  """auto's NRMSE over the best baseline's and over LS's, per axis (lower is better)."""
+  base = [r["nrmse_pct"] for m, r in results.items() if m.startswith("sklearn")]
+  if "auto" not in results:
+    return []
+  auto = np.array(results["auto"]["nrmse_pct"])
+  out = []
+  if base:
+    out.append("auto / best baseline, per axis: " + " ".join(
+        f"{a}: {v:.2f}" for a, v in zip(axes, auto / np.min(base, axis=0))))
+  if "LS" in results:
+    out.append("auto / LS, per axis: " + " ".join(
+        f"{a}: {v:.2f}" for a, v in zip(axes, auto / np.array(results["LS"]["nrmse_pct"]))))
+  return out

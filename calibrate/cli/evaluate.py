@@ -29,6 +29,46 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
   return out
 
 
+def interval_scores(info, x, truth, pred, level: float, result: dict) -> np.ndarray:
+  """The interval's half-width and coverage per output into `result`, overall, with the
+  inputs inside the training box and beyond it; returns (N,) True beyond it."""
+  far = info.distance(x) > 0  # inputs beyond the training box: the interval widens there
+  if info.interval_abs is not None:  # the interval fit promised, against what it covers here
+    half = info.half_width_at(level, x)
+    inside = np.abs(truth - pred) <= half
+    for j, n in enumerate(info.outputs):
+      result[n]["interval_half_width"] = float(info.half_width(level)[j])
+      result[n]["interval_coverage_pct"] = float(100 * inside[:, j].mean())
+      result[n]["interval_coverage_in_box_pct"] = float(100 * inside[~far, j].mean()) \
+          if (~far).any() else None
+      result[n]["interval_coverage_out_of_box_pct"] = float(100 * inside[far, j].mean()) \
+          if far.any() else None
+      result[n]["inputs_out_of_box_pct"] = float(100 * far.mean())
+  return far
+
+
+def question_lines(info, names, units) -> None:
+  """The fit's held-out RMSE with the question it answers, beside this file's."""
+  v = info.validation or {}
+  if v.get("cv_rmse") and v.get("split") in common.QUESTIONS:
+    print(f"the fit's held-out RMSE, {v['split']} held out ({common.ASKS[v['split']]}): "
+          + ", ".join(f"{n} {r:.4g} {u}" for n, r, u in zip(names, v["cv_rmse"], units)))
+    print("a file the fit never saw asks what --split recordings answers; a later stretch "
+          "of a training recording, what --split blocks answers")
+
+
+def coverage_line(result: dict, names, far: np.ndarray, level: float) -> str:
+  """The interval's coverage inside the training box and beyond it, per output."""
+  def share(key):
+    return ", ".join(f"{n} {result[n][key]:.1f} %" for n in names)
+  text = f"{level:.0%} interval's coverage, inputs inside the training box ({(~far).sum()} " \
+         f"samples): " + (share("interval_coverage_in_box_pct") if (~far).any() else "none")
+  if far.any():
+    text += f"; beyond it ({far.sum()} samples, {far.mean():.0%}; the interval widens " \
+            f"with the distance): " + share("interval_coverage_out_of_box_pct")
+  return text
+
+
 def run(args) -> int:
   from calibrate import estimators, figures, metrics as metrics_lib
   out = files.output_folder(args.out, "--out")
@@ -41,12 +81,7 @@ def run(args) -> int:
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)
   info = est.info
-  if info.interval_abs is not None:  # the interval fit promised, against what it covers here
-    half = info.half_width(args.level)
-    inside = np.abs(truth - pred) <= half
-    for j, n in enumerate(names):
-      result[n]["interval_half_width"] = float(half[j])
-      result[n]["interval_coverage_pct"] = float(100 * inside[:, j].mean())
+  far = interval_scores(info, x, truth, pred, args.level, result)
   if info.output_lo is not None:  # truth beyond what the fit saw: every method under-reaches
     beyond = (truth < info.output_lo) | (truth > info.output_hi)
     for j, n in enumerate(names):
@@ -64,12 +99,9 @@ def run(args) -> int:
           + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
   if not cover:
     print("no interval: the estimator was fitted without grouped cross-validation")
-  v = info.validation or {}
-  if v.get("cv_rmse") and v.get("split") in common.QUESTIONS:
-    print(f"the fit's held-out RMSE, {v['split']} held out ({common.ASKS[v['split']]}): "
-          + ", ".join(f"{n} {r:.4g} {u}" for n, r, u in zip(names, v["cv_rmse"], units)))
-    print("a file the fit never saw asks what --split recordings answers; a later stretch "
-          "of a training recording, what --split blocks answers")
+  else:
+    print(coverage_line(result, names, far, args.level))
+  question_lines(info, names, units)
   metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)

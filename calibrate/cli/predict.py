@@ -19,7 +19,8 @@ def add_parser(sub) -> None:
                  help="add a standard deviation column per output (<name>_sd)")
   p.add_argument("--interval", type=float, default=None, metavar="LEVEL",
                  help="add the interval at LEVEL (e.g. 0.95) as "
-                      "<name>_lo and <name>_hi columns (from fit's held-out groups)")
+                      "<name>_lo and <name>_hi columns (from fit's held-out groups; wider "
+                      "with the inputs' distance beyond the training box)")
 
 def run(args) -> int:
   from calibrate import estimators
@@ -37,7 +38,7 @@ def run(args) -> int:
     units += units[:a]
     cols.append(sd)
   if args.interval is not None:
-    half = est.info.half_width(args.interval)
+    half = est.info.half_width_at(args.interval, x)  # wider beyond the training box
     names += [f"{n}_{end}" for end in ("lo", "hi") for n in est.info.outputs]
     units += units[:a] * 2
     cols += [pred - half, pred + half]
