@@ -451,9 +451,11 @@ def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settin
     how = dataclasses.replace(how, config=dataclasses.replace(
         how.config or deep.DeepConfig(), layers=tuple(int(w) for w in layers)))
   elif folds:
-    how, cv, table = choose(layer_grid(dataclasses.replace(
-        how, config=how.config or deep.DeepConfig()), deep.GRID), x, y, groups, folds, val,
-        seed)
+    # chosen with one network per size; an ensemble's own cross-validation follows
+    one = dataclasses.replace(how, config=how.config or deep.DeepConfig(), ensemble=1)
+    chosen, cv, table = choose(layer_grid(one, deep.GRID), x, y, groups, folds, val, seed)
+    how = dataclasses.replace(chosen, ensemble=how.ensemble)
+    cv = cv if how.ensemble == 1 else None
     settings["layers_cv"] = table
   config = how.config or deep.DeepConfig()
   config.validate()

@@ -167,6 +167,25 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
                 float(max_gap))
 
 
+def merge_all(pairs, lag: Optional[float] = None, max_gap: Optional[float] = None,
+              time_column: str = "time", max_lag: float = 1.0
+              ) -> tuple[list[Merged], list[int], Optional[float]]:
+  """Several (sensor, reference) pairs of one logger merged: (each pair's `Merged`, the
+  pairs whose estimated lag lay far from the others', the others' median lag (s) they were
+  merged at instead; None when none was). One logger's lag does not change between
+  recordings: an estimate far from the others' locked onto another event."""
+  done = [merge(a, b, lag, max_gap, time_column, max_lag) for a, b in pairs]
+  estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
+  far = [estimated[k] for k in outlying_lags([done[k].lag for k in estimated])]
+  if not far:
+    return done, [], None
+  median = float(np.median([done[j].lag for j in estimated if j not in far]))
+  for k in far:
+    done[k] = dataclasses.replace(merge(*pairs[k], median, max_gap, time_column, max_lag),
+                                  lag_estimated=done[k].lag_estimated)
+  return done, far, median
+
+
 def two_streams(t: np.ndarray, x: np.ndarray, y: np.ndarray, x_names, y_names, *,
                 lag: float, rng: np.random.Generator, step: int = 1,
                 reference_rate: float = 250.0, x_offset: float = 0.0, y_offset: float = 0.0,

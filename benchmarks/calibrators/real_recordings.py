@@ -53,8 +53,9 @@ class RealRecordings:
   """Settings of the benchmark.
 
   Attributes:
-    rigs: the datasets: the footpad's episodes, the shell's runs in 10 s recordings, and
-      the shell at few static load states.
+    rigs: the datasets: the footpad's episodes, the shell's runs in 10 s recordings, the
+      shell at few static load states, and a synthetic magnetic fingertip logged with a
+      real log's pathologies (`benchmarks.calibrators.fingertip`).
     folds: grouped cross-validation folds over the training recordings.
     level: the interval's level.
     epochs: epoch cap of the networks.
@@ -65,8 +66,8 @@ class RealRecordings:
     baselines: also scikit-learn's LinearRegression, PolynomialFeatures + RidgeCV and
       MLPRegressor.
   """
-  rigs: tuple[Literal["footpad", "shell", "shell_static"], ...] = ("footpad", "shell",
-                                                                    "shell_static")
+  rigs: tuple[Literal["footpad", "shell", "shell_static", "fingertip"], ...] = (
+      "footpad", "shell", "shell_static", "fingertip")
   folds: int = setting(5, "[2, 20]")
   level: float = setting(0.95, "[0.5, 0.999]")
   epochs: int = setting(300, "[1, 10000]")
@@ -75,7 +76,8 @@ class RealRecordings:
 
   def relations(self):
     """Checks between fields (`fields.check` runs them after each field's own range)."""
-    yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static", self.rigs
+    yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static, fingertip", \
+        self.rigs
 
 
 def settings(quick: bool, seed: int) -> RealRecordings:
@@ -166,6 +168,48 @@ def _shell_static(ctx) -> Data:
               f"poses), {STATES} other states to test, stray_ir on")
 
 
+def _fingertip(ctx) -> Data:
+  """The synthetic magnetic fingertip (`fingertip`): its recordings written as two logger
+  files each (unit-laden headers, an irregular reference with dropouts, 25 ms late, wrapped
+  registers off the 0.3-uT grid), then read back the way `python -m calibrate merge` and
+  `fit --unwrap 16 --tare 0.8` read them."""
+  from benchmarks.calibrators import fingertip
+  rng = np.random.default_rng(np.random.SeedSequence(ctx.seed, spawn_key=(11,)))
+  n, seconds = (5, 20.0) if ctx.quick else (8, 30.0)
+  folder = ctx.out / "fingertip_logs"
+  folder.mkdir(parents=True, exist_ok=True)
+  parts, said = {}, []
+  for part, count, peak in (("train", n, 6.0), ("test", max(3, n // 2), 9.0)):
+    recs = [fingertip.recording(rng, seconds, peak) for _ in range(count)]
+    paths = [fingertip.write(folder, f"{part}{k}", r) for k, r in enumerate(recs)]
+    parts[part], lines = _raw_path(paths, parts.get("train"))
+    said += lines
+  (x, y, rec, record), (xt, yt, _, _) = parts["train"], parts["test"]
+  return Data(x, y, rec, xt, yt, ("Fx", "Fy", "Fz"),
+              f"fingertip (synthetic magnetometers, 12 channels): {n} training recordings of "
+              f"{seconds:g} s to 6 N, {max(3, n // 2)} test recordings to 9 N; through merge, "
+              f"unwrap and tare: " + "; ".join(said))
+
+
+def _raw_path(paths, train=None):
+  """((x, y, recording, the preparation record), lines said) of logger file pairs: merged
+  (lags estimated, an outlier set to the others' median), unwrapped as 16-bit registers
+  (the training recordings' periods for the test ones) and tared over their first 0.8 s."""
+  from calibrate import csvfile, prepare, streams
+  pairs = [(csvfile.read(a), csvfile.read(b)) for a, b in paths]
+  merged, far, _ = streams.merge_all(pairs)
+  tables = [csvfile.Table(m.names, m.units, m.data, str(p[0])) for m, p in zip(merged, paths)]
+  ins = tables[0].columns(["X*"], "inputs")
+  outs = tables[0].columns(["F_*"], "targets")
+  steps = prepare.Steps(unwrap_bits=16, tare=prepare.Tare(seconds=0.8))
+  periods = None if train is None else np.asarray(train[3]["unwrap_periods"])
+  ready = prepare.apply(tables, ins, outs, steps, periods)
+  lags = [m.lag * 1e3 for m in merged]
+  lines = [f"lags {min(lags):.1f} to {max(lags):.1f} ms ({len(far)} replaced by the median)",
+           f"{sum(m.in_gaps for m in merged)} rows in reference gaps dropped"]
+  return (ready.x, ready.y, ready.recording, ready.record), lines
+
+
 def _scores(pred: np.ndarray, truth: np.ndarray) -> dict:
   from calibrate import metrics
   return {"nrmse_pct": metrics.nrmse_pct(pred, truth).tolist(),
@@ -176,7 +220,7 @@ def _ours(ctx, d: Data) -> dict:
   """This project's methods, with grouped cross-validation; and each fitted as the LSANN paper
   splits (single samples) for the interval it would have promised."""
   import warnings
-  from calibrate import estimators, splits
+  from calibrate import estimators, methods, splits
   from calibrate.parts import mlp
   s = ctx.settings
   groups = splits.groups(len(d.x), "recordings", d.rec)
@@ -210,11 +254,10 @@ def _ours(ctx, d: Data) -> dict:
       r["truth_beyond_training_pct"] = (100 * beyond.mean(axis=0)).tolist()
       r["seconds"] = row["seconds"]
       if name != "auto":  # the paper's split: what its +-1.96 sd promised
-        kind = estimators.Kind(name)
-        nets = kind in (estimators.Kind.LSANN, estimators.Kind.NN)
+        kind, fixed = methods.AUTO[name]
         flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed,
-                              ensemble=s.ensemble if nets else 1,
-                              cross=kind is estimators.Kind.POLY)
+                              ensemble=s.ensemble if methods.seeded(kind.value) else 1,
+                              **fixed)
         r["single_split_coverage_pct"] = (100 * np.mean(
             np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
       else:
@@ -266,7 +309,8 @@ def run(ctx):
   from calibrate import metrics
   data, rows = {}, []
   for rig in ctx.settings.rigs:
-    d = {"footpad": _footpad, "shell": _shell, "shell_static": _shell_static}[rig](ctx)
+    d = {"footpad": _footpad, "shell": _shell, "shell_static": _shell_static,
+         "fingertip": _fingertip}[rig](ctx)
     results = _ours(ctx, d)
     if ctx.settings.baselines:
       results.update(_baselines(ctx, d))

@@ -66,19 +66,13 @@ def run(args) -> int:
   for sensor, reference in read:
     for line in sensor.cleaned + reference.cleaned:
       print(line)
-  done = [streams.merge(sensor, reference, args.lag, args.max_gap, args.time_column,
-                        args.max_lag) for sensor, reference in read]
-  estimated = [k for k, m in enumerate(done) if m.lag_estimated is not None]
-  far = [estimated[k] for k in streams.outlying_lags([done[k].lag for k in estimated])]
-  if far:
-    # one logger's lag does not change between recordings: an estimate far from the others
-    # locked onto another event, and the others' median is the better guess for its pair
-    others = float(np.median([done[j].lag for j in estimated if j not in far]))
-    for k in far:
-      print(f"warning: {pairs[k][0]}: its estimated lag {done[k].lag * 1e3:.1f} ms lies far "
-            f"from the other pairs' (median {others * 1e3:.1f} ms): the estimate locked onto "
-            f"another event; merged at the median instead (--lag SECONDS sets every pair's)")
-      done[k] = streams.merge(*read[k], others, args.max_gap, args.time_column, args.max_lag)
+  done, far, median = streams.merge_all(read, args.lag, args.max_gap, args.time_column,
+                                        args.max_lag)
+  for k in far:
+    print(f"warning: {pairs[k][0]}: its estimated lag {done[k].lag_estimated * 1e3:.1f} ms "
+          f"lies far from the other pairs' (median {median * 1e3:.1f} ms): the estimate "
+          f"locked onto another event; merged at the median instead (--lag SECONDS sets "
+          f"every pair's)")
   for (a, _), stem, m in zip(pairs, stems, done):
     csvfile.write(out / f"{stem}.csv", m.names, m.data, m.units)
     print(m.describe(str(a)))
