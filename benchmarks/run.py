@@ -10,6 +10,7 @@ metrics.json, metrics.csv, table.md, and the benchmark's predictions and figures
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import pathlib
 import shlex
 import sys
@@ -68,6 +69,10 @@ def _parser(benchmarks: dict[str, registry.Benchmark]) -> argparse.ArgumentParse
                       help="change a setting, e.g. params.friction_mu0=1.5, adc.vref=5, "
                            "z_levels=0.0005,0.001, effects=friction,sensor_noise (see NAME "
                            "--help)")
+  parser.add_argument("--data", type=cli.path_arg, default=None, metavar="DIR",
+                      help="run on your own recordings, one CSV per recording (benchmarks "
+                           "with a data setting: real_recordings, with --set inputs=... "
+                           "--set targets=...)")
   parser.add_argument("--executor", choices=("processes", "serial", "dask"), default="processes",
                       help="where a sweep's points run: local processes on every core "
                            "(default), this process, or Dask (an optional extra: pip install "
@@ -160,6 +165,12 @@ def _main(argv: Optional[list[str]]) -> int:
     return 0
   from sim import settings
   overrides = _parse_sets(args.sets)
+  if args.data is not None:
+    if "data" not in {f.name for f in dataclasses.fields(bench.settings(args.quick, args.seed))}:
+      parser.error(f"--data: {args.name} reads no recordings of yours (real_recordings does)")
+    if not args.data.is_dir():
+      parser.error(f"--data {args.data}: no such folder")
+    overrides["data"] = str(args.data)
   preset, preset_sets = bench.preset(args.preset)
   applied = settings.apply(settings.apply(bench.settings(args.quick, args.seed), preset_sets,
                                           bench.fixed), overrides, bench.fixed)

@@ -65,6 +65,15 @@ class RealRecordings:
       where MLPRegressor(64, 64) reaches 6.5 7.2 4.7 4.0 3.1 6.8 %.
     baselines: also scikit-learn's LinearRegression, PolynomialFeatures + RidgeCV and
       MLPRegressor.
+    data: a folder of your own recordings, one CSV per recording (`python -m calibrate
+      --help` has the layout), compared in place of the rigs ("" : the rigs); `--data DIR`
+      sets it.
+    inputs: with data, the sensor columns (names or globs, comma-separated, e.g. X*).
+    targets: with data, the force/torque columns (e.g. F_x [N],F_y [N] or F_*).
+    test_share: with data, the share of the recordings held out to test, the last ones by
+      name (the rest train, held out in turn by the grouped cross-validation).
+    tare: with data, the seconds at the start of each recording taken as unloaded (0: none).
+    unwrap: with data, the registers' width in bits whose wrap-around is undone (0: none).
   """
   rigs: tuple[Literal["footpad", "shell", "shell_static", "fingertip"], ...] = (
       "footpad", "shell", "shell_static", "fingertip")
@@ -73,9 +82,18 @@ class RealRecordings:
   epochs: int = setting(300, "[1, 10000]")
   ensemble: int = setting(5, "[1, 50]")
   baselines: bool = True
+  data: str = ""
+  inputs: str = ""
+  targets: str = ""
+  test_share: float = setting(0.3, "[0.1, 0.9]")
+  tare: float = setting(0.0, "[0, 1e6]", "s")
+  unwrap: int = setting(0, "[0, 64]")
 
   def relations(self):
     """Checks between fields (`fields.check` runs them after each field's own range)."""
+    yield not self.data or bool(self.inputs and self.targets), "inputs", \
+        "with data: the sensor columns and the targets (--set inputs='X*' --set " \
+        "targets='F_*')", (self.inputs, self.targets)
     yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static, fingertip", \
         self.rigs
 
@@ -189,6 +207,37 @@ def _fingertip(ctx) -> Data:
               f"fingertip (synthetic magnetometers, 12 channels): {n} training recordings of "
               f"{seconds:g} s to 6 N, {max(3, n // 2)} test recordings to 9 N; through merge, "
               f"unwrap and tare: " + "; ".join(said))
+
+
+def _user_data(ctx) -> Data:
+  """Your recordings (`data`, one CSV each): the last `test_share` of them by name to test,
+  the rest to train, read and prepared as `python -m calibrate fit` reads them."""
+  import pathlib
+  from calibrate import csvfile, prepare
+  from util import errors
+  s = ctx.settings
+  paths = sorted(pathlib.Path(s.data).glob("*.csv"))
+  if len(paths) < 3:
+    raise errors.SettingError(f"data={s.data!r}: {len(paths)} CSV file(s) there; the "
+                              f"comparison needs 3 recordings or more (two to train, one to "
+                              f"test)")
+  n_test = min(len(paths) - 2, max(1, round(s.test_share * len(paths))))
+  steps = prepare.Steps(unwrap_bits=s.unwrap or None,
+                        tare=prepare.Tare(seconds=s.tare) if s.tare else None)
+  out, periods = [], None
+  for part in (paths[:-n_test], paths[-n_test:]):
+    tables = [csvfile.read(p) for p in part]
+    ins = tables[0].columns([c.strip() for c in s.inputs.split(",")], "inputs")
+    outs = tables[0].columns([c.strip() for c in s.targets.split(",")], "targets")
+    ready = prepare.apply(tables, ins, outs, steps, periods)
+    periods = None if ready.record["unwrap_periods"] is None else \
+        np.asarray(ready.record["unwrap_periods"])
+    out.append(ready)
+  train, test = out
+  return Data(train.x, train.y, train.recording, test.x, test.y,
+              tuple(tables[0].names[i] for i in outs),
+              f"{s.data}: {len(paths) - n_test} training recordings ({paths[0].name} ...), "
+              f"{n_test} test recordings ({', '.join(p.name for p in paths[-n_test:])})")
 
 
 def _raw_path(paths, train=None):
@@ -308,9 +357,9 @@ def run(ctx):
   from benchmarks import outputs
   from calibrate import metrics
   data, rows = {}, []
-  for rig in ctx.settings.rigs:
+  for rig in ("data",) if ctx.settings.data else ctx.settings.rigs:
     d = {"footpad": _footpad, "shell": _shell, "shell_static": _shell_static,
-         "fingertip": _fingertip}[rig](ctx)
+         "fingertip": _fingertip, "data": _user_data}[rig](ctx)
     results = _ours(ctx, d)
     if ctx.settings.baselines:
       results.update(_baselines(ctx, d))
