@@ -372,3 +372,27 @@ def test_a_bit_inferred_from_values_off_its_grid_is_refused_and_the_period_can_b
   assert ready.record["unwrap_periods"] == [period, period]
   with pytest.raises(errors.SettingError, match="give one of them"):
     prepare.Steps(unwrap_bits=16, unwrap_period=period)
+
+
+def test_the_example_streams_raw_path_needs_no_manual_fix(tmp_path, capsys):
+  """`example --streams` plants a real log's pathologies: unit-laden names, an irregular
+  reference with dropouts, and in train2 a lean on the plate the lag estimate locks onto.
+  merge names that pair and merges it at the others' median (no merged row holds the lean);
+  fit reads the unit-laden names literally and reports no rail or wrap that is not there."""
+  assert cli.main(["example", str(tmp_path / "s"), "--streams"]) == 0
+  pairs = [str(tmp_path / "s" / f"train{k}_{side}.csv") for k in (1, 2, 3)
+           for side in ("sensor", "reference")]
+  capsys.readouterr()
+  assert cli.main(["merge", *pairs, "--out", str(tmp_path / "m")]) == 0
+  out = capsys.readouterr().out
+  warned = [line for line in out.splitlines() if line.startswith("warning:")]
+  assert len(warned) == 1 and "train2_sensor.csv" in warned[0], out
+  merged = [csvfile.read(tmp_path / "m" / f"train{k}_sensor.csv") for k in (1, 2, 3)]
+  fz = merged[1].column("F_z [N]")
+  others = np.concatenate([m.column("F_z [N]") for m in (merged[0], merged[2])])
+  assert fz.max() < others.max() + 50  # the 600 N lean is in no merged row
+  assert cli.main(["fit", "--csv", str(tmp_path / "m" / "*.csv"), "--inputs", "p*",
+                   "--targets", "F_x [N],F_y [N],F_z [N]", "--method", "ls", "--tare", "0.8",
+                   "--folds", "3", "--no-progress", "--out", str(tmp_path / "e.npz")]) == 0
+  out = capsys.readouterr().out
+  assert "rail" not in out and "jump" not in out, out

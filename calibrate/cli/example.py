@@ -51,10 +51,19 @@ EXAMPLE_REST = 1.0  # s at rest in front of every example stream recording
 
 
 
+LEAN = 600.0  # N on Fz for 0.3 s: someone leaning on the plate
+KNOCK = 0.6  # s after the sensor's sharpest event: when train2's reference logs a lean
+DROPOUTS = 3  # reference dropouts of 50-150 ms per recording
+
+
 def streams_pairs(out: pathlib.Path) -> list[pathlib.Path]:
   """The example recordings as raw stream pairs (`example --streams`): a demonstration of
   the commands, made from the 50 Hz example (the reference is interpolated from it);
-  `python -m benchmarks.run raw_streams` measures the same steps on 1 kHz simulator data."""
+  `python -m benchmarks.run raw_streams` measures the same steps on 1 kHz simulator data.
+  What a real log holds, planted: units in the column names (`p1 [counts]`, `F_x [N]`), a
+  reference clock at an irregular 167-500 Hz with `DROPOUTS` dropouts per recording, and in
+  train2's reference a lean on the plate (60 N for 0.3 s, `KNOCK` s after the sensor's
+  sharpest event) that the pad never felt, on which that pair's lag estimate locks."""
   from calibrate import streams
   rng = np.random.default_rng(np.random.SeedSequence(0, spawn_key=(24,)))
   written = []
@@ -78,11 +87,33 @@ def streams_pairs(out: pathlib.Path) -> list[pathlib.Path]:
                      table.data[rows][:, ins]])
       y = np.vstack([rng.normal(0, 0.1, (n, len(outs))), table.data[rows][:, outs]])
       name = f"{part}{k + 1}" if pieces > 1 else part
-      pair = streams.two_streams(np.arange(len(x)) * dt, x, y,
-                                 [table.names[i] for i in ins], [table.names[i] for i in outs],
-                                 lag=EXAMPLE_LAG, rng=rng, x_offset=40.0, y_offset=3.0,
-                                 x_units=[table.units[i] for i in ins],
-                                 y_units=[table.units[i] for i in outs], name=name)
-      for one in pair:
-        written.append(csvfile.write(out / one.path, one.names, one.data, one.units))
+      sensor, reference = streams.two_streams(
+          np.arange(len(x)) * dt, x, y, [f"{table.names[i]} [counts]" for i in ins],
+          ["F_x [N]", "F_y [N]", "F_z [N]"], lag=EXAMPLE_LAG, rng=rng, x_offset=40.0,
+          y_offset=3.0, name=name)
+      sensor, reference = _logged(sensor, reference, rng, knock=name == "train2")
+      for one in (sensor, reference):
+        written.append(csvfile.write(out / one.path, one.names, one.data))
   return written
+
+
+def _logged(sensor, reference, rng, knock: bool):
+  """(sensor, reference) as their loggers kept them: the reference with `DROPOUTS` gaps of
+  50-150 ms; with `knock`, someone leaning on the plate (`LEAN` on Fz for 0.3 s, `KNOCK` s
+  after the sensor's sharpest event) while the sensor's logger paused (a USB hiccup: its
+  rows from 0.1 s before to 0.1 s after the lean are missing), so no merged row holds the
+  lean and only the lag estimate sees it."""
+  t = reference.data[:, 0]
+  keep = np.ones(len(t), bool)
+  for start in rng.uniform(t[0] + 2, t[-1] - 1, DROPOUTS):
+    keep &= ~((t > start) & (t < start + rng.uniform(0.05, 0.15)))
+  data = reference.data[keep].copy()
+  if not knock:
+    return sensor, csvfile.Table(reference.names, reference.units, data, reference.path)
+  rate = np.linalg.norm(np.diff(sensor.data[:, 1:], axis=0), axis=1)
+  when = sensor.data[np.argmax(rate) + 1, 0] + EXAMPLE_LAG + KNOCK  # on the reference's clock
+  data[(data[:, 0] >= when) & (data[:, 0] < when + 0.3), -1] += LEAN
+  ts = sensor.data[:, 0] + EXAMPLE_LAG
+  paused = (ts > when - 0.1) & (ts < when + 0.4)
+  return (csvfile.Table(sensor.names, sensor.units, sensor.data[~paused], sensor.path),
+          csvfile.Table(reference.names, reference.units, data, reference.path))
