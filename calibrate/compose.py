@@ -153,10 +153,10 @@ def emit_estimate(part: Part, em, label: str, c: int, a: int, dest: str,
   averaged; the members' mean is acc / their count."""
   before = len(em.code)
   if isinstance(part, Mean):
-    part.emit_c(em, prefix, c)
+    part.emit_c(em, prefix, part.n_inputs)
     n, mean = len(part.members), f", mean of {len(part.members)}"
   else:
-    emit_member(part, em, f"{prefix}M0", c)
+    emit_member(part, em, f"{prefix}M0", part.n_inputs)  # the first of the inputs it reads
     n, mean = 1, ""
   code = em.take(before)
   em.macs += a * n
@@ -184,7 +184,7 @@ class PerOutput(Part):
 
   @property
   def n_inputs(self) -> int:
-    return self.parts[0].n_inputs
+    return max(p.n_inputs for p in self.parts)
 
   @property
   def n_outputs(self) -> int:
@@ -233,7 +233,7 @@ class PerOutput(Part):
        any(p.n_outputs != len(pick) for p in parts):
       raise ValueError("its parts do not fit its outputs")
     if "lo" in arrays:
-      c = parts[0].n_inputs
+      c = max(p.n_inputs for p in parts)
       check_shapes("training box", arrays, {"lo": (c,), "hi": (c,)})
     return cls(parts, pick, arrays.get("lo"), arrays.get("hi"))
 

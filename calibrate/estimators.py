@@ -112,6 +112,16 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
   return methods.fit_auto(counts, forces, groups, folds, candidates, progress, **kwargs)
 
 
+def fit_auto_temporal(counts: np.ndarray, forces: np.ndarray, dt: float,
+                      groups: splits.Groups, folds: int = 5, **kwargs
+                      ) -> tuple[Estimator, dict]:
+  """`fit_auto` with memory among the candidates: LS and POLY behind a memory front end
+  (`calibrate.temporal_fit.fit_auto_temporal`; `segments`, `taus`, `tare`, `differences`
+  as `fit_temporal` takes them), kept per output only where their held-out gain beats every
+  static candidate's by more than a standard error."""
+  return temporal_fit.fit_auto_temporal(counts, forces, dt, groups, folds, **kwargs)
+
+
 def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, *,
                  segments: Optional[np.ndarray] = None, select: Optional[np.ndarray] = None,
                  contact: Optional[np.ndarray] = None, sessions: Optional[np.ndarray] = None,

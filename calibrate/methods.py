@@ -401,7 +401,8 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
 def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fraction=0.15,
         seed=0, progress=None, degree=3, snapshots=(), val_block=None, ensemble=1, inputs=None,
         outputs=None, input_units=None, output_units=None, groups=None, folds=0, cross=False,
-        ridge=None, widths=(), net_inputs=None, gp=None, deep=None, layers=None):
+        ridge=None, widths=(), net_inputs=None, gp=None, deep=None, layers=None,
+        box_columns=None):
   """`calibrate.estimators.fit` (its docstring says what each option does)."""
   counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
                          net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
@@ -434,8 +435,9 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
     if only.any():
       fitted = dataclasses.replace(fitted, parts=tuple(
           compose.Residual(p.base, p.residual.without_outputs(only)) for p in fitted.parts))
+    # the distance beyond the box over the raw counts (a front end's first columns)
     extra = interval_fields(residual, only, stats, groups, named["outputs"],
-                            fold_distance(counts, parts))
+                            fold_distance(counts[:, :box_columns], parts))
   out = [Estimator(kind, p, i, training=t) for p, i, t in
          zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
              fitted.trainings)]
@@ -486,8 +488,14 @@ AUTO = {
     "NN": (Kind.NN, {}),
     "LSGP": (Kind.LSGP, {}),
     "MLP": (Kind.MLP, {}),
+    # behind a memory front end (`temporal_fit.fit_auto_temporal`): they read its features,
+    # the others its first columns (the counts); last, so kept only where their held-out
+    # gain beats every static candidate's by more than a standard error
+    "LS+MEM": (Kind.LS, {}),
+    "POLY+MEM": (Kind.POLY, {"cross": True}),
 }
 AUTO_CANDIDATES = ("LS", "POLY-CH", "POLY", "LSANN", "NN", "MLP")
+MEMORY_CANDIDATES = ("LS+MEM", "POLY+MEM")
 
 
 def candidate_name(candidate) -> str:
@@ -498,8 +506,11 @@ def candidate_name(candidate) -> str:
   return name
 
 
-def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **kwargs):
-  """`calibrate.estimators.fit_auto` (its docstring says what it returns)."""
+def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
+             static_columns=None, **kwargs):
+  """`calibrate.estimators.fit_auto` (its docstring says what it returns). With
+  `static_columns`, the candidates but `MEMORY_CANDIDATES` read only the first that many
+  columns of `counts` (a front end's counts, before its history features)."""
   import time
   if groups is None or folds < 2:
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
@@ -512,8 +523,13 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
       kind, fixed = AUTO[name]
       t0 = time.perf_counter()
       one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
-      est = fit(kind, counts, forces, groups=groups, folds=folds, progress=progress,
-                **{**kwargs, **one, **fixed})
+      reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
+          counts[:, :static_columns]
+      names_in = kwargs.get("inputs")
+      est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,
+                box_columns=static_columns,
+                **{**kwargs, **one, **fixed,
+                   "inputs": None if names_in is None else list(names_in)[:reads.shape[1]]})
       table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
                      "seconds": time.perf_counter() - t0, "estimator": est}
       fitted.append(est)
@@ -529,8 +545,10 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None, **
   pick = tuple(used.index(k) for k in best)
   info = _auto_info([fitted[k] for k in best], [names[k] for k in best],
                     fitted[used[0]].info, table)
-  root = compose.PerOutput(tuple(fitted[k].root for k in used), pick, info.input_lo,
-                           info.input_hi)
+  # the box of every column: the parts reading fewer take its first ones
+  width = max(fitted[k].root.n_inputs for k in used)
+  root = compose.PerOutput(tuple(fitted[k].root for k in used), pick,
+                           np.min(counts[:, :width], axis=0), np.max(counts[:, :width], axis=0))
   return Estimator(Kind.AUTO, root, info), table
 
 
@@ -560,6 +578,8 @@ def _auto_info(chosen, chosen_names, first: Info, table: dict) -> Info:
                      if k in ("split", "groups", "block", "folds")},
                   "cv_rmse": [i.validation["cv_rmse"][j] for j, i in zip(cols, infos)],
                   "chosen": list(chosen_names),
+                  "held_out_beyond_box": min(i.validation.get("held_out_beyond_box", 0)
+                                             for i in infos),
                   "candidates": {k: v["cv_rmse"] for k, v in table.items()},
                   "ls_only": [n for j, n in enumerate(first.outputs)
                               if n in infos[j].validation.get("ls_only", [])]})

@@ -57,6 +57,47 @@ def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contac
                     network_history, folds, kwargs, gru)
 
 
+def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, taus=None,
+                      candidates=TAU_CANDIDATES, max_taus=3, differences=True, tare=None,
+                      seed=0, inputs=None, input_units=None, static=None, **kwargs):
+  """`fit_auto` with memory among its candidates: a front end (its time constants chosen on
+  held-out recordings as `fit_temporal` chooses them), then every static candidate on its
+  counts and `methods.MEMORY_CANDIDATES` on its features, each output kept from the
+  simplest within a standard error of the best. The features run per recording (no filter
+  crosses a boundary, a held-out recording's first samples read unwarmed filters as at use),
+  and the memory candidates come last: kept only where their held-out gain over every
+  static candidate exceeds a standard error (`static`: their names, default
+  `methods.AUTO_CANDIDATES`). Returns (estimator, table) as `fit_auto`; the estimator holds
+  the front end only where an output kept a memory candidate."""
+  counts, forces = linear.check_pair(counts, forces)
+  n, c = counts.shape
+  segments = np.zeros(n, int) if segments is None else np.asarray(segments)
+  names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
+  every = np.ones(n, bool)
+  base = front_end(counts, forces, dt, segments, every, (None, None), tare, differences)
+  if taus is None:
+    taus, differences = choose_taus(base, counts, forces, segments, every, (None, None),
+                                    tuple(candidates), max_taus, folds, seed)
+  memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
+                               differences=differences)
+  memory.validate()
+  feats = memory.features(counts, segments)
+  est, table = methods.fit_auto(
+      feats, forces, groups, folds,
+      tuple(static or methods.AUTO_CANDIDATES) + methods.MEMORY_CANDIDATES,
+      static_columns=c, seed=seed, inputs=memory.names(names), **kwargs)
+  kept = set(est.info.validation["chosen"]) & set(methods.MEMORY_CANDIDATES)
+  units = tuple(input_units or ("counts",) * c)
+  info = dataclasses.replace(
+      est.info, inputs=names, input_units=units, input_lo=counts.min(axis=0),
+      input_hi=counts.max(axis=0), data_sha256=data_digest(counts, forces),
+      settings={**est.info.settings, "memory": memory.settings() if kept else None,
+                "integer_inputs": integer_counts(counts)})
+  if not kept and memory.tare is None:  # the static parts read the counts themselves
+    return dataclasses.replace(est, info=info), table
+  return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info), table
+
+
 def front_end(counts, forces, dt, segments, select, stream, tare, differences):
   """The front end without time constants: the tare's detector (LS on the selected samples,
   unless a contact flag says where the sensor is unloaded) and no-load reference."""

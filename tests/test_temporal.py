@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from calibrate import estimators
-from calibrate.parts import mlp
+from calibrate import cexport, estimators, splits
+from calibrate.parts import deep, mlp
 from calibrate.parts import memory
 from util import errors
 
@@ -387,3 +387,47 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   from calibrate import cexport
   per_estimate = cexport.arm_instructions_per_estimate(tmp_path, BENCH)
   assert per_estimate == pytest.approx(report.cycles[0], rel=0.15)
+
+
+def _creeping(recordings=4, seconds=20.0, dt=0.01, creep=0.3, seed=0):
+  """One channel reading the force less a share `creep` of its first-order lag (tau 1 s):
+  a sensor whose elastomer relaxes, which no static map of one instant undoes; the
+  reference carries 0.05 N of noise, which no map undoes."""
+  rng = np.random.default_rng(seed)
+  xs, ys, segs = [], [], []
+  for r in range(recordings):
+    t = np.arange(0, seconds, dt)
+    f = np.maximum(0, np.sin(2 * np.pi * 0.3 * t + r)) * 10
+    lag = np.zeros_like(f)
+    a = dt / (1 + dt)
+    for k in range(1, len(f)):
+      lag[k] = lag[k - 1] + a * (f[k] - lag[k - 1])
+    xs.append(np.round((f - creep * lag) * 500 + 10000)[:, None])
+    ys.append(f[:, None] + rng.normal(0, 0.05, (len(t), 1)))  # the reference's noise
+    segs.append(np.full(len(t), r))
+  return np.vstack(xs), np.vstack(ys), np.concatenate(segs), dt
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+@pytest.mark.parametrize("creep, kept", [(0.3, True), (0.0, False)])
+def test_auto_keeps_memory_only_where_the_held_out_recordings_gain(tmp_path, creep, kept):
+  """A relaxing sensor: auto with memory among its candidates keeps LS or POLY behind the
+  front end (its held-out RMSE well below every static candidate's), and the C export
+  follows it over recordings; the same sensor without relaxation: the static candidates
+  stay, and the estimator holds no front end."""
+  x, y, seg, dt = _creeping(creep=creep)
+  groups = splits.groups(len(x), "recordings", seg)
+  est, table = estimators.fit_auto_temporal(
+      x, y, dt, groups, 3, segments=seg, taus=(1.0,), seed=0, static=("LS", "POLY", "MLP"),
+      deep=deep.DeepConfig(epochs=3), layers=(8,))
+  chosen = est.info.validation["chosen"][0]
+  static = min(table[k]["cv_rmse"][0] for k in table if "+MEM" not in k)
+  assert (chosen.endswith("+MEM")) is kept, table
+  assert (est.memory is not None) is kept
+  if kept:
+    assert table[chosen]["cv_rmse"][0] < 0.5 * static
+    want = est.predict(x, segments=seg)
+    assert np.sqrt(np.mean((want - y) ** 2)) < 0.5 * static
+    if CC is not None:
+      got = cexport.run_on_host(est, x[:3000], segments=seg[:3000], cc=CC)
+      assert np.max(np.abs(got - want[:3000])) / np.abs(want).max() < 1e-5

@@ -289,7 +289,7 @@ def static_only(what: str, args) -> None:
   """Refuses the temporal front end's options where they would not be read."""
   if args.history is not None or args.track_drift is not None:
     raise errors.SettingError(f"{what} compares static estimators: --history and "
-                              f"--track-drift go with fit --method ls, poly, lsann, nn or gru")
+                              f"--track-drift go with fit (--method auto among them)")
 
 
 def sample_time(table, args, rows, recording) -> float:
@@ -319,6 +319,15 @@ def fit_auto(args, x, y, groups, names):
   from util.progress import progress_bar, quiet
   held_out_groups("--method auto", groups, args)
   config, widths = net_config(args)
+  if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
+    from calibrate.parts import memory
+    return estimators.fit_auto_temporal(
+        x, y, args.dt, groups, args.folds, segments=args.recording,
+        taus=None if args.history == "auto" else (args.history or ()),
+        tare=None if args.track_drift is None else memory.Tare(args.track_drift),
+        config=config, widths=widths, seed=args.seed, **deep_options(args),
+        val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
+        progress=quiet if args.no_progress else progress_bar("training"), **names)
   return estimators.fit_auto(
       x, y, groups, args.folds, config=config, widths=widths, seed=args.seed,
       **deep_options(args),

@@ -22,7 +22,8 @@ def add_parser(sub) -> None:
                       "reading the inputs' past (needs the time column); lsgp: LS plus a "
                       "Gaussian process on its residual; auto: ls, each channel's powers "
                       "(POLY-CH), poly, lsann, nn and mlp on the same held-out groups, the best "
-                      "kept per output")
+                      "kept per output (with --history also ls and poly behind the memory "
+                      "front end, kept only where they beat every static one)")
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("estimator.npz"),
                  help="where to write the estimator (default estimator.npz)")
   p.add_argument("--per-channel", action="store_true",
@@ -36,14 +37,15 @@ def run(args) -> int:
   from calibrate import estimators
   files.output_file(args.out, "--out", (".npz",))
   common.check_options(args, args.method)
-  if args.method == "auto":
-    common.static_only("fit --method auto", args)
   table, x, y, groups, names = common.training_data(args)
   if args.method == "auto":
     est, candidates = common.fit_auto(args, x, y, groups, names)
     est = common.with_preparation(est, args.prepared)
     est.save(args.out)
     common.print_candidates(est, candidates)
+    if args.dt is not None and est.memory is None:
+      print("memory front end not kept: no output's held-out error fell by more than a "
+            "standard error with it")
     report(est, table, args, y, groups)
     print(f"wrote {args.out}")
     return 0
