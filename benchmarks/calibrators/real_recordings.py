@@ -91,9 +91,15 @@ class RealRecordings:
 
   def relations(self):
     """Checks between fields (`fields.check` runs them after each field's own range)."""
-    yield not self.data or bool(self.inputs and self.targets), "inputs", \
-        "with data: the sensor columns and the targets (--set inputs='X*' --set " \
-        "targets='F_*')", (self.inputs, self.targets)
+    import pathlib
+    yield not self.data or pathlib.Path(self.data).is_dir(), "data", \
+        "a folder that exists (your recordings, one CSV each), or empty for the rigs", \
+        self.data
+    for key in ("inputs", "targets"):
+      given = getattr(self, key)
+      yield bool(given) == bool(self.data), key, \
+          "column names or globs with data (--set inputs='X*' --set targets='F_*'), empty " \
+          "without it", given
     yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static, fingertip", \
         self.rigs
 
