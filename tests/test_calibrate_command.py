@@ -250,8 +250,10 @@ def test_the_shipped_example_is_what_the_simulator_writes(tmp_path, quick_footpa
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
 def _auto(counts, forces):
   from calibrate import splits
+  from calibrate.parts import deep
   est, _ = estimators.fit_auto(counts, forces, splits.groups(len(counts), "blocks", block=100),
-                               3, config=FAST, seed=1)
+                               3, config=FAST, seed=1, deep=deep.DeepConfig(epochs=10),
+                               layers=(16,))
   return est
 
 

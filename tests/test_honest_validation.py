@@ -11,7 +11,7 @@ import pytest
 
 from calibrate import __main__ as cli
 from calibrate import csvfile, estimators, methods, splits
-from calibrate.parts import mlp
+from calibrate.parts import deep, mlp
 
 
 def _ar1(n, phi, channels, rng):
@@ -233,7 +233,7 @@ def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_
   x, y = _mixed(1500)
   g = splits.groups(len(x), "blocks", block=100)
   est, table = estimators.fit_auto(x, y, g, 3, config=mlp.LMConfig(hidden=8, epochs=40),
-                                   seed=0)
+                                   seed=0, deep=deep.DeepConfig(epochs=10), layers=(16,))
   chosen = est.info.validation["chosen"]
   rmse = np.array([table[m]["cv_rmse"] for m in table])
   folds = np.array([table[m]["estimator"].info.validation["cv_fold_rmse"] for m in table])
@@ -262,7 +262,7 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
     csvfile.write(tmp_path / f"run{k}.csv", names,
                   np.column_stack([np.arange(len(x)) * 0.01, x, y]))
   data = ["--csv", str(tmp_path / "run*.csv"), "--inputs", "s*", "--targets", "Fx,Fy,Fz",
-          "--epochs", "10", "--hidden", "4", "--folds", "2", "--no-progress"]
+          "--epochs", "10", "--hidden", "4", "--layers", "16", "--folds", "2", "--no-progress"]
   assert cli.main(["compare", *data, "--out", str(tmp_path / "table.csv")]) == 0
   out = capsys.readouterr().out
   assert all(m in out for m in ("LS", "POLY", "LSANN", "NN")) and "*" in out
@@ -315,7 +315,9 @@ def test_one_continuous_output_is_not_few_states_and_auto_says_it_once():
   with warnings.catch_warnings(record=True) as heard:
     warnings.simplefilter("always")
     estimators.fit_auto(xs, ys, splits.groups(len(xs), "recordings", rec), 2,
-                        config=mlp.LMConfig(hidden=4, epochs=2))
+                        config=mlp.LMConfig(hidden=4, epochs=2),
+                        deep=deep.DeepConfig(epochs=2),
+                        layers=(8,))
   assert sum(issubclass(w.category, estimators.FewStatesWarning) for w in heard) == 1
 
 
