@@ -431,3 +431,29 @@ def test_auto_keeps_memory_only_where_the_held_out_recordings_gain(tmp_path, cre
     if CC is not None:
       got = cexport.run_on_host(est, x[:3000], segments=seg[:3000], cc=CC)
       assert np.max(np.abs(got - want[:3000])) / np.abs(want).max() < 1e-5
+
+
+def test_a_one_axis_sensor_tracks_its_drift_and_two_targets_name_the_normal_one(tmp_path,
+                                                                                 capsys):
+  """--track-drift reads the normal force: a one-axis sensor's only target; of two targets,
+  the one --drift-axis names (refused without it, naming the option and the targets)."""
+  from calibrate import __main__ as cli, csvfile
+  x, y, seg, dt = _creeping(recordings=3, seconds=10.0, creep=0.0)
+  drift = np.concatenate([np.linspace(0, 40, (seg == r).sum()) for r in range(3)])
+  for r in range(3):
+    rows = seg == r
+    csvfile.write(tmp_path / f"r{r}.csv", ["time", "s", "Fz", "Fx"],
+                  np.column_stack([np.arange(rows.sum()) * dt, x[rows, 0] + drift[rows],
+                                   y[rows, 0], 0.1 * y[rows, 0]]))
+  base = ["fit", "--csv", str(tmp_path / "r*.csv"), "--inputs", "s", "--method", "ls",
+          "--track-drift", "0.5", "--folds", "2", "--no-progress"]
+  assert cli.main(base + ["--targets", "Fz", "--out", str(tmp_path / "one.npz")]) == 0
+  est = estimators.Estimator.load(tmp_path / "one.npz")
+  assert est.memory.tare.axis == 0
+  capsys.readouterr()
+  assert cli.main(base + ["--targets", "Fx,Fz", "--out", str(tmp_path / "two.npz")]) == 2
+  err = capsys.readouterr().err
+  assert "--drift-axis" in err and "Fx, Fz" in err
+  assert cli.main(base + ["--targets", "Fx,Fz", "--drift-axis", "Fz",
+                          "--out", str(tmp_path / "two.npz")]) == 0
+  assert estimators.Estimator.load(tmp_path / "two.npz").memory.tare.axis == 1

@@ -84,8 +84,11 @@ def preparation_args(p: argparse.ArgumentParser) -> None:
                       "('auto': chosen on held-out recordings); needs the time column")
   p.add_argument("--track-drift", type=float, default=None, metavar="NEWTONS",
                  help="re-zero each input during unloaded intervals, those where the LS map's "
-                      "third target (the normal force) reads under NEWTONS for 21 samples; "
+                      "normal force (--drift-axis) reads under NEWTONS for 21 samples; "
                       "needs the time column")
+  p.add_argument("--drift-axis", default=None, metavar="TARGET",
+                 help="--track-drift: the target that is the normal force (default: the "
+                      "third target, or the only one of a one-axis sensor)")
   p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
                  help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
                       "the range, which are reported either way): +-2**BITS times the "
@@ -292,6 +295,32 @@ def static_only(what: str, args) -> None:
                               f"--track-drift go with fit (--method auto among them)")
 
 
+def drift_tare(args, outputs):
+  """The drift tracker's rule of --track-drift and --drift-axis (None without them): the
+  normal force is the named target, else the third, else a one-axis sensor's only one."""
+  if args.track_drift is None:
+    if args.drift_axis is not None:
+      raise errors.SettingError("--drift-axis names the normal force of --track-drift: give "
+                                "--track-drift NEWTONS too")
+    return None
+  from calibrate.parts import memory
+  outputs = list(outputs)
+  if args.drift_axis is not None:
+    if args.drift_axis not in outputs:
+      raise errors.SettingError(f"--drift-axis {args.drift_axis!r} is not a target: allowed "
+                                f"{', '.join(outputs)}")
+    axis = outputs.index(args.drift_axis)
+  elif len(outputs) >= 3 or len(outputs) == 1:
+    axis = 2 if len(outputs) >= 3 else 0
+  else:
+    raise errors.SettingError(f"--track-drift reads the normal force, and of {len(outputs)} "
+                              f"targets none is the third: name it with --drift-axis (one "
+                              f"of {', '.join(outputs)})")
+  tare = memory.Tare(args.track_drift, axis=axis)
+  tare.validate()
+  return tare
+
+
 def sample_time(table, args, rows, recording) -> float:
   """s between samples: the median step of the time column within recordings."""
   t = table.column(args.time_column)
@@ -320,11 +349,10 @@ def fit_auto(args, x, y, groups, names):
   held_out_groups("--method auto", groups, args)
   config, widths = net_config(args)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
-    from calibrate.parts import memory
     return estimators.fit_auto_temporal(
         x, y, args.dt, groups, args.folds, segments=args.recording,
         taus=None if args.history == "auto" else (args.history or ()),
-        tare=None if args.track_drift is None else memory.Tare(args.track_drift),
+        tare=drift_tare(args, names["outputs"]),
         config=config, widths=widths, seed=args.seed, **deep_options(args),
         val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
         progress=quiet if args.no_progress else progress_bar("training"), **names)

@@ -64,12 +64,11 @@ def run(args) -> int:
     if args.dt is None:
       est = estimators.fit(kind, x, y, seed=args.seed, **names, **shared)
     else:
-      from calibrate.parts import memory
       est = estimators.fit_temporal(
           kind, x, y, args.dt, segments=args.recording, seed=args.seed,
           taus=None if args.history == "auto" else (args.history or ()),
           differences=args.history is not None,
-          tare=None if args.track_drift is None else memory.Tare(args.track_drift),
+          tare=common.drift_tare(args, names["outputs"]),
           gru=common.gru_config(args), **names, **shared)
     est = common.with_preparation(est, args.prepared)
   except errors.DataError as err:  # say which file, and how many rows it gave
