@@ -457,3 +457,20 @@ def test_a_one_axis_sensor_tracks_its_drift_and_two_targets_name_the_normal_one(
   assert cli.main(base + ["--targets", "Fx,Fz", "--drift-axis", "Fz",
                           "--out", str(tmp_path / "two.npz")]) == 0
   assert estimators.Estimator.load(tmp_path / "two.npz").memory.tare.axis == 1
+
+
+def test_a_recurrent_network_that_never_beats_its_start_adds_nothing():
+  """A sensor LS maps exactly (noise on the reference only): no Adam step lowers the
+  held-out error below the start's, the network's output is set to exactly zero, and GRU
+  predicts what its LS stage does (to rounding)."""
+  from calibrate.parts import gru
+  x, y, seg, dt = _creeping(recordings=5, seconds=10.0, creep=0.0)
+  est = estimators.fit_temporal(
+      "GRU", x, y, dt, segments=seg, taus=(), differences=False, seed=0,
+      gru=gru.GRUConfig(hidden=4, window=256, burn_in=32, learning_rate=1.0, steps=40,
+                        check=10, patience=2))
+  assert est.training.best_epoch == 0
+  stage = est.root.stage
+  feats = est.memory.features(x, seg)
+  np.testing.assert_allclose(est.predict(x, segments=seg), stage.base.predict(feats),
+                             rtol=0, atol=1e-12)

@@ -158,6 +158,10 @@ def training_lines(est, args, groups) -> None:
         f"{est.info.settings['gru']['patience']} held-out checks without a better error"
     print(f"training stopped: {why} after {t.epochs} Adam steps ({t.seconds:.1f} s); kept "
           f"the weights of step {t.best_epoch}")
+    if t.best_epoch == 0:
+      print("the recurrent network never beat its start (LS alone) on its held-out "
+            "recordings, so it adds nothing: the estimator is its LS stage; --method ls "
+            "with the same --history gives it in a fraction of the time")
   elif stops:
     print("training stopped: " + "; ".join(
         f"{t.stop.value} after {t.epochs} epochs ({t.seconds:.1f} s)" for t in stops))

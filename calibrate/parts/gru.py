@@ -419,6 +419,8 @@ def train(x: np.ndarray, y: np.ndarray, runs: list[tuple[int, int]], select: np.
   run = _adam(p, batches, bsz, held, config, rng, progress)
   net = GRU(*(np.asarray(run["best"][k]) for k in ("w", "u", "b", "c", "v", "v0")),
             x_mean, x_scale, y_mean, y_scale)
+  if run["best_check"] == 0:  # no step beat the start held out: the output is exactly 0
+    net = dataclasses.replace(net, v=np.zeros_like(net.v), v0=-y_mean / y_scale)
   return net, TrainResult(run["steps"], run["stop"], np.array(run["hist"]),
                           run["best_check"] * config.check, run["seconds"],
                           run["compile_s"], tuple(val_units))
