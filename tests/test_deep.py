@@ -63,3 +63,10 @@ def test_a_layer_setting_out_of_range_is_named():
     deep.DeepConfig(layers=(8, 8, 8)).validate()
   with pytest.raises(Exception, match="learning_rate"):
     deep.DeepConfig(learning_rate=2.0).validate()
+
+
+def test_fit_says_when_the_size_kept_is_the_largest_tried():
+  from calibrate.cli import fit
+  table = {"16": 0.3, "64x64": 0.2, "128x128": 0.1}
+  assert "largest size tried" in fit.grid_line("perceptron layers", "128x128", table)
+  assert "largest" not in fit.grid_line("perceptron layers", "64x64", table)

@@ -92,15 +92,12 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
   print(common.question(groups, len(np.unique(args.recording))))
   if est.memory is not None:
     print(memory_line(est.memory, args.history == "auto"))
-  if "width_cv" in info.settings:
-    table = info.settings["width_cv"]
-    print(f"network width {info.settings['config']['hidden']} (held-out error, each output's "
-          f"MSE over its variance: " + ", ".join(f"{w}: {v:.3g}" for w, v in table.items())
-          + ")")
-  if "layers_cv" in info.settings:
-    print(f"perceptron layers {'x'.join(map(str, info.settings['deep']['layers']))} "
-          f"(held-out error, each output's MSE over its variance: " + ", ".join(
-              f"{w}: {v:.3g}" for w, v in info.settings["layers_cv"].items()) + ")")
+  for key, what, chosen in (
+      ("width_cv", "network width", str(info.settings.get("config", {}).get("hidden"))),
+      ("layers_cv", "perceptron layers",
+       "x".join(map(str, info.settings.get("deep", {}).get("layers", ()))))):
+    if key in info.settings:
+      print(grid_line(what, chosen, info.settings[key]))
   if info.settings.get("cross"):
     print(poly_lines(info.settings))
   if v:
@@ -170,6 +167,16 @@ def training_lines(est, args, groups) -> None:
     print(f"the {what} early-stopping hold-out ({args.val_fraction:.0%} of the samples, "
           f"{'whole recordings' if groups.how == 'recordings' else groups.how}), which only "
           f"chose when to stop")
+
+
+def grid_line(what: str, chosen: str, table: dict) -> str:
+  """The size chosen on held-out groups, every size's error, and whether it is the grid's
+  largest (a larger one might do better: said, not tried)."""
+  text = (f"{what} {chosen} (held-out error, each output's MSE over its variance: "
+          + ", ".join(f"{w}: {v:.3g}" for w, v in table.items()) + ")")
+  if chosen == list(table)[-1] and len(table) > 1:
+    text += "\n  the largest size tried: a larger one might do better still"
+  return text
 
 
 def memory_line(mem, chosen: bool) -> str:
