@@ -41,6 +41,7 @@ def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contac
     raise errors.DataError(f"segments and select need one value per sample ({n})")
   names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
   stream = (contact, sessions)
+  gain = None  # LS's held-out error without and with the history chosen here
   if memory is not None:
     if memory.channels != c:
       raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
@@ -48,13 +49,17 @@ def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contac
   else:
     base = front_end(counts, forces, dt, segments, select, stream, tare, differences)
     if taus is None:
-      taus, differences = choose_taus(base, counts, forces, segments, select, stream,
-                                      tuple(candidates), max_taus, folds, seed)
+      taus, differences, gain = choose_taus(base, counts, forces, segments, select, stream,
+                                            tuple(candidates), max_taus, folds, seed)
     memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
                                  differences=differences)
     memory.validate()
-  return fit_behind(memory, kind, counts, forces, segments, select, stream, names, seed,
-                    network_history, folds, kwargs, gru)
+  est = fit_behind(memory, kind, counts, forces, segments, select, stream, names, seed,
+                   network_history, folds, kwargs, gru)
+  if gain is not None:
+    est = dataclasses.replace(est, info=dataclasses.replace(
+        est.info, settings={**est.info.settings, "history_gain": gain}))
+  return est
 
 
 def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, taus=None,
@@ -76,8 +81,8 @@ def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, tau
   every = np.ones(n, bool)
   base = front_end(counts, forces, dt, segments, every, (None, None), tare, differences)
   if taus is None:
-    taus, differences = choose_taus(base, counts, forces, segments, every, (None, None),
-                                    tuple(candidates), max_taus, folds, seed)
+    taus, differences, _ = choose_taus(base, counts, forces, segments, every, (None, None),
+                                       tuple(candidates), max_taus, folds, seed)
   memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
                                differences=differences)
   memory.validate()
@@ -124,9 +129,11 @@ def front_end(counts, forces, dt, segments, select, stream, tare, differences):
 
 
 def choose_taus(base, counts, forces, segments, chosen, stream, candidates, max_taus, folds,
-                seed) -> tuple[tuple[float, ...], bool]:
-  """The time constants, greedily, that lower LS's error on held-out segments, and whether
-  the first differences do (when `base.differences` allows them)."""
+                seed) -> tuple[tuple[float, ...], bool, dict]:
+  """The time constants, greedily, that lower LS's error on held-out segments, whether the
+  first differences do (when `base.differences` allows them), and LS's held-out RMSE (over
+  each output's spread, root mean square over the outputs) without the history and with
+  what was kept."""
   labels = segments[chosen]
   if folds < 2:
     raise errors.SettingError(f"choosing the time constants holds out recordings: folds="
@@ -159,7 +166,8 @@ def choose_taus(base, counts, forces, segments, chosen, stream, candidates, max_
     return t == "d" or sum(k != "d" for k in kept) < max_taus
 
   kept = select.greedy(score, list(candidates) + (["d"] if base.differences else []), room)
-  return tuple(sorted(k for k in kept if k != "d")), "d" in kept
+  gain = {"without": score([]), "with": score(kept)}
+  return tuple(sorted(k for k in kept if k != "d")), "d" in kept, gain
 
 
 def fit_behind(memory, kind, counts, forces, segments, chosen, stream, names, seed,
