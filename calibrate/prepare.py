@@ -10,8 +10,9 @@ only when asked:
   exactly (plus or minus 2**bits times the channel's least significant bit, which is the
   smallest step between its values);
 * rails: samples with a channel at its rail (`rails=(lo, hi)`, or found as the recording's
-  minimum or maximum held for `RAIL_HOLD` samples in a row) are reported per channel with
-  their share; `drop_rails` removes those rows;
+  minimum or maximum held for `RAIL_HOLD` samples in a row while another column moves) are
+  reported per channel with their share, one line per recording; `drop_rails` removes
+  those rows;
 * tare (`Tare`): each input channel and each target offset by its median over the
   recording's unloaded rows (its first seconds, or rows where a contact flag is 0), as F/T
   users bias their sensor before each contact. An estimator keeps the rule, so `predict`,
