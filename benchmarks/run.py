@@ -168,8 +168,6 @@ def _main(argv: Optional[list[str]]) -> int:
   if args.data is not None:
     if "data" not in {f.name for f in dataclasses.fields(bench.settings(args.quick, args.seed))}:
       parser.error(f"--data: {args.name} reads no recordings of yours (real_recordings does)")
-    if not args.data.is_dir():
-      parser.error(f"--data {args.data}: no such folder")
     overrides["data"] = str(args.data)
   preset, preset_sets = bench.preset(args.preset)
   applied = settings.apply(settings.apply(bench.settings(args.quick, args.seed), preset_sets,

@@ -199,8 +199,7 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
     half = conformal_half(out["interval_abs"], len(residual), offsets, GROWTH_LEVEL)
     growth, beyond = interval_growth(np.abs(residual), distance, half)
     out["interval_growth"] = growth
-    out["validation"] = {**stats, "interval_growth": growth.tolist(),
-                         "held_out_beyond_box": int(beyond)}
+    out["validation"] = {**stats, "held_out_beyond_box": int(beyond)}
   return out
 
 

@@ -101,15 +101,11 @@ class NetworkRecipe:
       lin = given or linear.fit_linear(x, y)
       targets = y - lin.predict(x)
     xn = x if self.net_inputs is None else x[:, :self.net_inputs]
-    parts, sds, runs = [], [], []
-    for member_seed in member_seeds(seed, self.ensemble):
-      tr, va = val.split(where, member_seed)
-      res = mlp.train(xn[tr], targets[tr], xn[va], targets[va], self.config, member_seed,
-                      progress, snapshots=self.snapshots)
-      sds.append(np.std(targets[va] - res.net.predict(xn[va]), axis=0))
-      parts.append(res.net if lin is None else compose.Residual(lin, res.net))
-      runs.append(res)
-    return Fitted(tuple(parts), tuple(sds), tuple(runs))
+
+    def train(xt, yt, xv, yv, member_seed):
+      return mlp.train(xt, yt, xv, yv, self.config, member_seed, progress,
+                       snapshots=self.snapshots)
+    return members(train, xn, targets, lin, where, val, seed, self.ensemble)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,17 +121,29 @@ class DeepRecipe:
     from calibrate.parts import deep
     config = self.config or deep.DeepConfig()
     lin = given or linear.fit_linear(x, y)
-    targets = y - lin.predict(x)
-    parts, sds, runs = [], [], []
-    for member_seed in member_seeds(seed, self.ensemble):
-      tr, va = val.split(where, member_seed)
-      res = deep.train(x[tr], targets[tr], x[va], targets[va], config, member_seed)
-      sds.append(np.std(targets[va] - res.net.predict(x[va]), axis=0))
-      parts.append(compose.Residual(lin, res.net))
-      runs.append(res)
-      if progress is not None:
-        progress(len(parts), self.ensemble)
-    return Fitted(tuple(parts), tuple(sds), tuple(runs))
+
+    def train(xt, yt, xv, yv, member_seed):
+      return deep.train(xt, yt, xv, yv, config, member_seed)
+    return members(train, x, y - lin.predict(x), lin, where, val, seed, self.ensemble,
+                   progress)
+
+
+def members(train, x, targets, lin, where, val: Validation, seed: int, ensemble: int,
+            progress=None) -> Fitted:
+  """An ensemble's networks, each trained by `train(x, y, x_val, y_val, seed)` on `targets`
+  (N, A) from its own seed and validation hold-out, on LS `lin`'s residual when given: the
+  members (Residual(lin, net) or the net), their validation residual spreads, their runs.
+  `progress`, when given, hears of each member done."""
+  parts, sds, runs = [], [], []
+  for member_seed in member_seeds(seed, ensemble):
+    tr, va = val.split(where, member_seed)
+    res = train(x[tr], targets[tr], x[va], targets[va], member_seed)
+    sds.append(np.std(targets[va] - res.net.predict(x[va]), axis=0))
+    parts.append(res.net if lin is None else compose.Residual(lin, res.net))
+    runs.append(res)
+    if progress is not None:
+      progress(len(parts), ensemble)
+  return Fitted(tuple(parts), tuple(sds), tuple(runs))
 
 
 def member_seeds(seed: int, n: int) -> list[int]:
@@ -448,21 +456,21 @@ def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settin
   """(the perceptron's recipe at its layers, their cross-validation or None): `layers` None
   chooses among `deep.GRID` on the held-out groups (when there are folds)."""
   from calibrate.parts import deep
+  how = dataclasses.replace(how, config=how.config or deep.DeepConfig())
   cv = None
   if layers is not None:
     how = dataclasses.replace(how, config=dataclasses.replace(
-        how.config or deep.DeepConfig(), layers=tuple(int(w) for w in layers)))
+        how.config, layers=tuple(int(w) for w in layers)))
   elif folds:
     # chosen with one network per size; an ensemble's own cross-validation follows
-    one = dataclasses.replace(how, config=how.config or deep.DeepConfig(), ensemble=1)
+    one = dataclasses.replace(how, ensemble=1)
     chosen, cv, table = choose(layer_grid(one, deep.GRID), x, y, groups, folds, val, seed)
     how = dataclasses.replace(chosen, ensemble=how.ensemble)
     cv = cv if how.ensemble == 1 else None
     settings["layers_cv"] = table
-  config = how.config or deep.DeepConfig()
-  config.validate()
-  settings["deep"] = dataclasses.asdict(config)
-  return dataclasses.replace(how, config=config), cv
+  how.config.validate()
+  settings["deep"] = dataclasses.asdict(how.config)
+  return how, cv
 
 
 def combine(members):
@@ -517,6 +525,7 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
                               "folds >= 2")
   fitted, table = [], {}
   names = [candidate_name(c) for c in (AUTO_CANDIDATES if candidates is None else candidates)]
+  names_in = None if kwargs.get("inputs") is None else list(kwargs["inputs"])
   with warnings.catch_warnings(record=True) as heard:
     warnings.simplefilter("always", FewStatesWarning)
     for name in names:
@@ -525,11 +534,10 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
       one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
       reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
           counts[:, :static_columns]
-      names_in = kwargs.get("inputs")
       est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,
                 box_columns=static_columns,
                 **{**kwargs, **one, **fixed,
-                   "inputs": None if names_in is None else list(names_in)[:reads.shape[1]]})
+                   "inputs": None if names_in is None else names_in[:reads.shape[1]]})
       table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
                      "seconds": time.perf_counter() - t0, "estimator": est}
       fitted.append(est)

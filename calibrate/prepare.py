@@ -167,15 +167,18 @@ def wrap_like(x: np.ndarray, others: Optional[np.ndarray] = None) -> list[tuple[
   each of them jumps across it). Nor is a step of the load: a jump where another column (an
   input, or a target in `others` (N, A)) jumps over `WRAP_ALONE` of its range in the same
   sample (static loads changing state) is the load's, as a register wraps alone."""
+  candidates = jumps(x, 0.75 * np.ptp(x, axis=0))
+  if not candidates:  # most recordings: nothing to look into further
+    return []
   every = x if others is None else np.column_stack([x, others])
-  step = np.abs(np.diff(every, axis=0)) / np.where(np.ptp(every, axis=0) > 0,
-                                                   np.ptp(every, axis=0), 1.0)
-  lo, span = x.min(axis=0), np.ptp(x, axis=0)
+  width = np.ptp(every, axis=0)
+  step = np.abs(np.diff(every, axis=0)) / np.where(width > 0, width, 1.0)
+  lo, span = x.min(axis=0), width[:x.shape[1]]
   pos = (x - lo) / np.where(span > 0, span, 1.0)  # 0..1 within the channel's range
-  steady = [np.median(np.abs(np.diff(x[:, c]))) <= WRAP_NOISE * span[c]
-            and span[c] >= WRAP_MIN_BITS * lsb(x[:, c]) for c in range(x.shape[1])]
+  steady = {c: np.median(np.abs(np.diff(x[:, c]))) <= WRAP_NOISE * span[c]
+            and span[c] >= WRAP_MIN_BITS * lsb(x[:, c]) for c in {c for _, c in candidates}}
   found = []
-  for row, c in jumps(x, 0.75 * span):
+  for row, c in candidates:
     a, b = pos[row - 1, c], pos[row, c]
     after = pos[row:row + 1 + WRAP_STAY, c]
     stays = np.all(after > 0.5) if b > a else np.all(after < 0.5)

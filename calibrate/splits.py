@@ -108,12 +108,12 @@ def groups(n: int, how: How = "auto", recording: Optional[np.ndarray] = None,
     return Groups(np.arange(n) // block, "blocks", block)
   # blocks within each recording: a block across a file boundary would join two recordings
   _, rec = np.unique(np.asarray(recording), return_inverse=True)
-  order = np.argsort(rec, kind="stable")
-  within = np.empty(n, int)
-  starts = np.searchsorted(rec[order], np.arange(rec.max() + 1))
-  within[order] = np.arange(n) - np.repeat(starts, np.bincount(rec))
-  keys = rec.astype(np.int64) * (n + 1) + within // block
-  _, labels = np.unique(keys, return_inverse=True)
+  within = np.empty(n, int)  # each sample's place in its own recording
+  for r in range(rec.max() + 1):
+    mine = rec == r
+    within[mine] = np.arange(mine.sum())
+  _, labels = np.unique(np.column_stack([rec, within // block]), axis=0,
+                        return_inverse=True)
   return Groups(labels.astype(int), "blocks", block)
 
 

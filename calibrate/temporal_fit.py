@@ -10,6 +10,7 @@ and `Info` describes the raw counts the chain reads.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -47,13 +48,8 @@ def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contac
       raise errors.DataError(f"the front end reads {memory.channels} channels, the counts "
                              f"have {c}")
   else:
-    base = front_end(counts, forces, dt, segments, select, stream, tare, differences)
-    if taus is None:
-      taus, differences, gain = choose_taus(base, counts, forces, segments, select, stream,
-                                            tuple(candidates), max_taus, folds, seed)
-    memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
-                                 differences=differences)
-    memory.validate()
+    memory, gain = build_memory(counts, forces, dt, segments, select, stream, tare,
+                                differences, taus, candidates, max_taus, folds, seed)
   est = fit_behind(memory, kind, counts, forces, segments, select, stream, names, seed,
                    network_history, folds, kwargs, gru)
   if gain is not None:
@@ -78,29 +74,47 @@ def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, tau
   n, c = counts.shape
   segments = np.zeros(n, int) if segments is None else np.asarray(segments)
   names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
-  every = np.ones(n, bool)
-  base = front_end(counts, forces, dt, segments, every, (None, None), tare, differences)
-  if taus is None:
-    taus, differences, _ = choose_taus(base, counts, forces, segments, every, (None, None),
-                                       tuple(candidates), max_taus, folds, seed)
-  memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
-                               differences=differences)
-  memory.validate()
+  memory, _ = build_memory(counts, forces, dt, segments, np.ones(n, bool), (None, None), tare,
+                           differences, taus, candidates, max_taus, folds, seed)
   feats = memory.features(counts, segments)
   est, table = methods.fit_auto(
       feats, forces, groups, folds,
       tuple(static or methods.AUTO_CANDIDATES) + methods.MEMORY_CANDIDATES,
       static_columns=c, seed=seed, inputs=memory.names(names), **kwargs)
   kept = set(est.info.validation["chosen"]) & set(methods.MEMORY_CANDIDATES)
-  units = tuple(input_units or ("counts",) * c)
-  info = dataclasses.replace(
-      est.info, inputs=names, input_units=units, input_lo=counts.min(axis=0),
-      input_hi=counts.max(axis=0), data_sha256=data_digest(counts, forces),
-      settings={**est.info.settings, "memory": memory.settings() if kept else None,
-                "integer_inputs": integer_counts(counts)})
+  info = raw_info(est.info, names, input_units, counts, forces,
+                  memory.settings() if kept else None)
   if not kept and memory.tare is None:  # the static parts read the counts themselves
     return dataclasses.replace(est, info=info), table
   return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info), table
+
+
+def build_memory(counts, forces, dt, segments, select, stream, tare, differences, taus,
+                 candidates, max_taus, folds, seed):
+  """(the front end, LS's held-out error without and with its history or None): its tare
+  (`front_end`), then the time constants given or chosen on held-out recordings
+  (`choose_taus`)."""
+  base = front_end(counts, forces, dt, segments, select, stream, tare, differences)
+  gain = None
+  if taus is None:
+    taus, differences, gain = choose_taus(base, counts, forces, segments, select, stream,
+                                          tuple(candidates), max_taus, folds, seed)
+  memory = dataclasses.replace(base, taus=tuple(float(t) for t in taus),
+                               differences=differences)
+  memory.validate()
+  return memory, gain
+
+
+def raw_info(info, names, input_units, raw, forces, memory_settings):
+  """`info` of a fit on a front end's features, made to describe the raw counts (N, C) it
+  reads: their names, units, ranges and digest, and the front end's settings."""
+  c = raw.shape[1]
+  return dataclasses.replace(
+      info, inputs=tuple(names), input_units=tuple(input_units or ("counts",) * c),
+      input_lo=raw.min(axis=0), input_hi=raw.max(axis=0),
+      data_sha256=data_digest(raw, forces),
+      settings={**info.settings, "memory": memory_settings,
+                "integer_inputs": integer_counts(raw)})
 
 
 def front_end(counts, forces, dt, segments, select, stream, tare, differences):
@@ -154,13 +168,17 @@ def choose_taus(base, counts, forces, segments, chosen, stream, candidates, max_
     column[tau] = list(range(ch * (1 + i), ch * (2 + i)))
   column["d"] = list(range(ch * (1 + len(candidates)), ch * (2 + len(candidates))))
 
-  def score(keys) -> float:
-    cols = sum((column[k] for k in [None] + keys), [])
+  @functools.lru_cache(maxsize=None)
+  def scored(keys: tuple) -> float:
+    cols = sum((column[k] for k in (None,) + keys), [])
 
     def fold(tr, va):
       return [linear.fit_linear(feats[tr][:, cols], y[tr]).predict(feats[va][:, cols])]
     err = select.fold_sums(select.held_out(fold, y, parts), parts, spread)[0]
     return float(np.sqrt(err / len(y)))
+
+  def score(keys) -> float:  # greedy's trials, remembered: the gain below reads two again
+    return scored(tuple(keys))
 
   def room(kept, t) -> bool:
     return t == "d" or sum(k != "d" for k in kept) < max_taus
@@ -176,7 +194,7 @@ def fit_behind(memory, kind, counts, forces, segments, chosen, stream, names, se
   (cross-validated over `folds` of the `groups` in kwargs, when there are any), behind it."""
   kind = Kind(kind)
   c = counts.shape[1]
-  units = tuple(kwargs.pop("input_units", None) or ("counts",) * c)
+  units = kwargs.pop("input_units", None)
   feats = memory.features(counts, segments, *stream)
   if kind is Kind.GRU:
     est = fit_gru(feats, forces, segments, chosen, memory.names(names), seed, folds, gru,
@@ -185,12 +203,7 @@ def fit_behind(memory, kind, counts, forces, segments, chosen, stream, names, se
     est = methods.fit(kind, feats[chosen], forces[chosen], seed=seed,
                       inputs=memory.names(names), net_inputs=None if network_history else c,
                       folds=folds if kwargs.get("groups") is not None else 0, **kwargs)
-  raw = counts[chosen]
-  info = dataclasses.replace(
-      est.info, inputs=names, input_units=units, input_lo=raw.min(axis=0),
-      input_hi=raw.max(axis=0), data_sha256=data_digest(raw, forces[chosen]),
-      settings={**est.info.settings, "memory": memory.settings(),
-                "integer_inputs": integer_counts(raw)})
+  info = raw_info(est.info, names, units, counts[chosen], forces[chosen], memory.settings())
   return dataclasses.replace(est, root=compose.Chain(memory, est.root), info=info)
 
 

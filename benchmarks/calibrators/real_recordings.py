@@ -208,8 +208,8 @@ def _fingertip(ctx) -> Data:
     paths = [fingertip.write(folder, f"{part}{k}", r) for k, r in enumerate(recs)]
     parts[part], lines = _raw_path(paths, parts.get("train"))
     said += lines
-  (x, y, rec, record), (xt, yt, _, _) = parts["train"], parts["test"]
-  return Data(x, y, rec, xt, yt, ("Fx", "Fy", "Fz"),
+  train, test = parts["train"], parts["test"]
+  return Data(train.x, train.y, train.recording, test.x, test.y, ("Fx", "Fy", "Fz"),
               f"fingertip (synthetic magnetometers, 12 channels): {n} training recordings of "
               f"{seconds:g} s to 6 N, {max(3, n // 2)} test recordings to 9 N; through merge, "
               f"unwrap and tare: " + "; ".join(said))
@@ -230,39 +230,42 @@ def _user_data(ctx) -> Data:
   n_test = min(len(paths) - 2, max(1, round(s.test_share * len(paths))))
   steps = prepare.Steps(unwrap_bits=s.unwrap or None,
                         tare=prepare.Tare(seconds=s.tare) if s.tare else None)
-  out, periods = [], None
-  for part in (paths[:-n_test], paths[-n_test:]):
-    tables = [csvfile.read(p) for p in part]
-    ins = tables[0].columns([c.strip() for c in s.inputs.split(",")], "inputs")
-    outs = tables[0].columns([c.strip() for c in s.targets.split(",")], "targets")
-    ready = prepare.apply(tables, ins, outs, steps, periods)
-    periods = None if ready.record["unwrap_periods"] is None else \
-        np.asarray(ready.record["unwrap_periods"])
-    out.append(ready)
-  train, test = out
-  return Data(train.x, train.y, train.recording, test.x, test.y,
-              tuple(tables[0].names[i] for i in outs),
+  columns = tuple([c.strip() for c in text.split(",")] for text in (s.inputs, s.targets))
+  tables = [csvfile.read(p) for p in paths[:-n_test]]
+  train = _ready(tables, *columns, steps)
+  test = _ready([csvfile.read(p) for p in paths[-n_test:]], *columns, steps, train)
+  axes = tuple(tables[0].names[i] for i in tables[0].columns(columns[1], "targets"))
+  return Data(train.x, train.y, train.recording, test.x, test.y, axes,
               f"{s.data}: {len(paths) - n_test} training recordings ({paths[0].name} ...), "
               f"{n_test} test recordings ({', '.join(p.name for p in paths[-n_test:])})")
 
 
+def _ready(tables, inputs, targets, steps, train=None):
+  """The recordings (`csvfile.Table`s) prepared as `python -m calibrate fit` prepares them
+  (`prepare.apply`), the test ones with the training ones' unwrap periods (`train`, their
+  `prepare.Prepared`)."""
+  from calibrate import prepare
+  ins = tables[0].columns(inputs, "inputs")
+  outs = tables[0].columns(targets, "targets")
+  periods = None if train is None or train.record["unwrap_periods"] is None else \
+      np.asarray(train.record["unwrap_periods"])
+  return prepare.apply(tables, ins, outs, steps, periods)
+
+
 def _raw_path(paths, train=None):
-  """((x, y, recording, the preparation record), lines said) of logger file pairs: merged
-  (lags estimated, an outlier set to the others' median), unwrapped as 16-bit registers
-  (the training recordings' periods for the test ones) and tared over their first 0.8 s."""
+  """(prepared (`_ready`), lines said) of logger file pairs: merged (lags estimated, an
+  outlier set to the others' median), unwrapped as 16-bit registers (the training
+  recordings' periods for the test ones) and tared over their first 0.8 s."""
   from calibrate import csvfile, prepare, streams
   pairs = [(csvfile.read(a), csvfile.read(b)) for a, b in paths]
   merged, far, _ = streams.merge_all(pairs)
   tables = [csvfile.Table(m.names, m.units, m.data, str(p[0])) for m, p in zip(merged, paths)]
-  ins = tables[0].columns(["X*"], "inputs")
-  outs = tables[0].columns(["F_*"], "targets")
-  steps = prepare.Steps(unwrap_bits=16, tare=prepare.Tare(seconds=0.8))
-  periods = None if train is None else np.asarray(train[3]["unwrap_periods"])
-  ready = prepare.apply(tables, ins, outs, steps, periods)
+  ready = _ready(tables, ["X*"], ["F_*"],
+                 prepare.Steps(unwrap_bits=16, tare=prepare.Tare(seconds=0.8)), train)
   lags = [m.lag * 1e3 for m in merged]
   lines = [f"lags {min(lags):.1f} to {max(lags):.1f} ms ({len(far)} replaced by the median)",
            f"{sum(m.in_gaps for m in merged)} rows in reference gaps dropped"]
-  return (ready.x, ready.y, ready.recording, ready.record), lines
+  return ready, lines
 
 
 def _scores(pred: np.ndarray, truth: np.ndarray) -> dict:

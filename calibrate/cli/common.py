@@ -348,19 +348,15 @@ def fit_auto(args, x, y, groups, names):
   from util.progress import progress_bar, quiet
   held_out_groups("--method auto", groups, args)
   config, widths = net_config(args)
+  options = dict(config=config, widths=widths, seed=args.seed, **deep_options(args),
+                 val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
+                 progress=quiet if args.no_progress else progress_bar("training"), **names)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
     return estimators.fit_auto_temporal(
         x, y, args.dt, groups, args.folds, segments=args.recording,
         taus=None if args.history == "auto" else (args.history or ()),
-        tare=drift_tare(args, names["outputs"]),
-        config=config, widths=widths, seed=args.seed, **deep_options(args),
-        val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
-        progress=quiet if args.no_progress else progress_bar("training"), **names)
-  return estimators.fit_auto(
-      x, y, groups, args.folds, config=config, widths=widths, seed=args.seed,
-      **deep_options(args),
-      val_fraction=args.val_fraction, degree=args.degree, ensemble=args.ensemble,
-      progress=quiet if args.no_progress else progress_bar("training"), **names)
+        tare=drift_tare(args, names["outputs"]), **options)
+  return estimators.fit_auto(x, y, groups, args.folds, **options)
 
 
 def with_preparation(est, record: dict):
@@ -395,19 +391,14 @@ def new_recording(est, args, targets: bool = False):
   return table, ready
 
 
+# what the held-out error answers with each split: how far off ...
 QUESTIONS = {
-    "recordings": "how far off on a recording the fit never saw (another session, another "
-                  "day)",
-    "blocks": "how far off later in these same recordings (blocks of them held out, no "
-              "block shared with training)",
-    "samples": "how far off at instants between training samples (single samples held out: "
-               "flatters every method)",
+    "recordings": "on a recording the fit never saw (another session, another day)",
+    "blocks": "later in these same recordings (blocks of them held out, no block shared "
+              "with training)",
+    "samples": "at instants between training samples (single samples held out: flatters "
+               "every method)",
 }
-
-
-ASKS = {"recordings": "a recording the fit never saw",
-        "blocks": "later time in the same recordings",
-        "samples": "instants between training samples, which flatters every method"}
 
 
 def question(groups, recordings: int) -> str:
@@ -415,7 +406,7 @@ def question(groups, recordings: int) -> str:
   question where the data allow it."""
   other = {"recordings": "--split blocks: later time in these same recordings",
            "blocks": "--split recordings: a recording the fit never saw"}.get(groups.how)
-  text = f"the held-out error answers: {QUESTIONS[groups.how]}"
+  text = f"the held-out error answers: how far off {QUESTIONS[groups.how]}"
   if other and recordings >= 2:
     text += f"; the other question: {other} (compare prints both)"
   return text

@@ -34,10 +34,10 @@ def interval_scores(info, x, truth, pred, level: float, result: dict) -> np.ndar
   inputs inside the training box and beyond it; returns (N,) True beyond it."""
   far = info.distance(x) > 0  # inputs beyond the training box: the interval widens there
   if info.interval_abs is not None:  # the interval fit promised, against what it covers here
-    half = info.half_width_at(level, x)
-    inside = np.abs(truth - pred) <= half
+    inside = np.abs(truth - pred) <= info.half_width_at(level, x)
+    half = info.half_width(level)
     for j, n in enumerate(info.outputs):
-      result[n]["interval_half_width"] = float(info.half_width(level)[j])
+      result[n]["interval_half_width"] = float(half[j])
       result[n]["interval_coverage_pct"] = float(100 * inside[:, j].mean())
       result[n]["interval_coverage_in_box_pct"] = float(100 * inside[~far, j].mean()) \
           if (~far).any() else None
@@ -51,7 +51,8 @@ def question_lines(info, names, units) -> None:
   """The fit's held-out RMSE with the question it answers, beside this file's."""
   v = info.validation or {}
   if v.get("cv_rmse") and v.get("split") in common.QUESTIONS:
-    print(f"the fit's held-out RMSE, {v['split']} held out ({common.ASKS[v['split']]}): "
+    print(f"the fit's held-out RMSE, {v['split']} held out (how far off "
+          f"{common.QUESTIONS[v['split']]}): "
           + ", ".join(f"{n} {r:.4g} {u}" for n, r, u in zip(names, v["cv_rmse"], units)))
     print("a file the fit never saw asks what --split recordings answers; a later stretch "
           "of a training recording, what --split blocks answers")

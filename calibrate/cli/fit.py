@@ -7,6 +7,7 @@ import pathlib
 import numpy as np
 
 from calibrate.cli import common
+from calibrate.info import GROWTH_MIN
 from util import cli, errors, files
 
 def add_parser(sub) -> None:
@@ -117,11 +118,11 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
         f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
         f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
     if info.interval_growth is not None:
-      from calibrate.info import GROWTH_MIN
       n = v.get("held_out_beyond_box", 0)
       print("  beyond the training box it widens by 1 + g x the distance (in training ranges), "
             "g " + ", ".join(f"{o} {g:.3g}" for o, g in zip(info.outputs, info.interval_growth))
-            + (f": measured on {n} held-out samples beyond their fold's box" if n >= GROWTH_MIN else
+            + (f": measured on {n} held-out samples beyond their fold's box"
+               if n >= GROWTH_MIN else
                f": too few held-out samples beyond their fold's box to measure it ({n}), so "
                f"it doubles one training range out"))
     between = info.between_width(args.level)

@@ -75,9 +75,6 @@ class DeepConfig:
                                   f"{hi}")
 
 
-Config = DeepConfig  # the family's settings by the name `methods.ResidualRecipe` reads
-
-
 @dataclasses.dataclass(frozen=True)
 class Deep(Part):
   """A fitted perceptron: (weights (out, in), biases (out,)) per layer, tanh between them,
@@ -256,8 +253,7 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   keys = jax.random.split(key, config.epochs)
   state = epoch(state, keys[0], xs, ys, len(x))  # compiles
   compile_s = time.perf_counter() - t0
-  # held out in output units per output; the checks compare their sum over the outputs'
-  # variances (scale-free)
+  # held-out MSE per output in standardised units: the checks compare their sum (scale-free)
   val = [np.asarray(_mse(p, xv, yv, mask)) for p in (params, state[0])]
   best, best_k, stop = state[0], 1, Stop.MAX_EPOCHS
   t0 = time.perf_counter()
