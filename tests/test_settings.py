@@ -200,6 +200,23 @@ def test_a_field_without_an_interval_or_a_doc_cannot_be_declared():
       rate: float = fields.setting(1.0, "(0, 10]", "Hz")
 
 
+def test_help_lines_end_at_a_sentence_not_at_an_abbreviation_or_inside_brackets():
+  @fields.declared
+  @dataclasses.dataclass(frozen=True)
+  class Cols:
+    """A config.
+
+    Attributes:
+      inputs: the sensor columns (names or globs, e.g. X*). Second sentence.
+      rate: a rate (in Hz. or so). More.
+    """
+    inputs: str = ""
+    rate: float = fields.setting(1.0, "(0, 10]", "Hz")
+  docs = fields.docs_of(Cols)
+  assert docs["inputs"] == "the sensor columns (names or globs, e.g. X*)."
+  assert docs["rate"] == "a rate (in Hz. or so)."
+
+
 def test_intervals_keep_nan_out_and_inf_only_behind_a_closed_bracket():
   assert math.inf in fields.Interval.parse("(0, inf]")
   assert math.inf not in fields.Interval.parse("(0, inf)")

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import functools
+import inspect
 import math
 import re
 import types
@@ -29,7 +30,7 @@ import numpy as np
 from util import errors
 
 _INTERVAL = re.compile(r"\s*([\[(])\s*([^,\s]+)\s*,\s*([^,\s]+)\s*([\])])\s*")
-_ENTRY = re.compile(r"^ {4}(\w+(?:, \w+)*): ?(.*)$")
+_ENTRY = re.compile(r"^ {2}(\w+(?:, \w+)*): ?(.*)$")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,7 +128,8 @@ def docs_of(cls: type) -> dict[str, str]:
   """{field name: its first sentence} from the class docstring's "Attributes:" section
   (entries "    name: text" or "    a, b: text", continued on deeper-indented lines)."""
   out: dict[str, str] = {}
-  text = (cls.__doc__ or "").split("Attributes:", 1)
+  # dedented, so a class defined at any depth reads the same
+  text = inspect.cleandoc(cls.__doc__ or "").split("Attributes:", 1)
   if len(text) < 2:
     return out
   names: list[str] = []
@@ -137,17 +139,25 @@ def docs_of(cls: type) -> dict[str, str]:
       names = m[1].split(", ")
       for n in names:
         out[n] = m[2].strip()
-    elif line.startswith("      ") and names:
+    elif line.startswith("    ") and names:
       for n in names:
         out[n] += " " + line.strip()
-    elif line.strip() and not line.startswith("      "):
+    elif line.strip() and not line.startswith("    "):
       names = []
   return {k: _first_sentence(v) for k, v in out.items()}
 
 
 def _first_sentence(text: str) -> str:
-  m = re.search(r"\.(\s|$)", text)
-  return text[:m.start() + 1] if m else text
+  """Up to the first full stop that ends a sentence: not an abbreviation's ("e.g.") and
+  not inside parentheses, whose sentence ends after them."""
+  for m in re.finditer(r"\.(\s|$)", text):
+    head = text[:m.start() + 1]
+    if re.search(r"\b(e\.g|i\.e|cf|vs|etc)\.$", head) and m.end() < len(text):
+      continue
+    if head.count("(") > head.count(")"):
+      continue
+    return head
+  return text
 
 
 def declared(cls: type) -> type:
