@@ -107,8 +107,9 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
   each channel's powers (POLY-CH), POLY with cross terms, LSANN and NN.
 
   Returns (the AUTO estimator, {method: {"cv_rmse": [per output], "seconds": fit time,
-  "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...;
-  `ensemble` to the networks only)."""
+  "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...);
+  `ensemble` N > 1 adds each network's mean of N networks (named e.g. "NNx5") right after
+  the single network, which reuses the width or layers the single one chose."""
   return methods.fit_auto(counts, forces, groups, folds, candidates, progress, **kwargs)
 
 

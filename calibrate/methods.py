@@ -507,11 +507,54 @@ MEMORY_CANDIDATES = ("LS+MEM", "POLY+MEM")
 
 
 def candidate_name(candidate) -> str:
-  """A candidate's name in `AUTO` from its name or its method (a `Kind`: its plain fit)."""
+  """A candidate's name in `AUTO` from its name or its method (a `Kind`: its plain fit);
+  a network's name may end in xN, the mean of N networks (`ENSEMBLE_MARK`)."""
   name = candidate.value if isinstance(candidate, Kind) else str(candidate)
-  if name not in AUTO:
-    raise errors.unknown("candidate", name, tuple(AUTO))
+  base, n = split_ensemble(name)
+  if base not in AUTO or (n > 1 and not seeded(AUTO[base][0].value)):
+    raise errors.unknown("candidate", name, tuple(AUTO) + tuple(
+        f"{k}{ENSEMBLE_MARK}5" for k, (kind, _) in AUTO.items() if seeded(kind.value)))
   return name
+
+
+ENSEMBLE_MARK = "x"  # "NNx5": the mean of five NN networks
+
+
+def split_ensemble(name: str) -> tuple[str, int]:
+  """("NN", 5) from "NNx5"; (name, 1) for a name without the mark."""
+  base, mark, n = name.rpartition(ENSEMBLE_MARK)
+  if mark and base and n.isdigit() and int(n) > 1:
+    return base, int(n)
+  return name, 1
+
+
+def with_ensembles(names: list, ensemble: int) -> list:
+  """`names` with each network's mean of `ensemble` networks right after it (`ensemble` > 1):
+  the single network first, so one-SE keeps the mean only where its gain shows."""
+  out = []
+  for name in names:
+    out.append(name)
+    if ensemble > 1 and split_ensemble(name)[1] == 1 and seeded(AUTO[name][0].value):
+      out.append(f"{name}{ENSEMBLE_MARK}{ensemble}")
+  return list(dict.fromkeys(out))
+
+
+def _candidate_options(name: str, fitted: dict) -> dict:
+  """The options that set candidate `name` apart from the fit's: its family's fixed ones,
+  its ensemble size; a mean of networks takes the width or layers its single network chose
+  (in `fitted` {name: estimator}) rather than choosing them again."""
+  base, n = split_ensemble(name)
+  kind, fixed = AUTO[base]
+  out = {**fixed, "ensemble": n}
+  single = fitted.get(base)
+  if n > 1 and single is not None:
+    chosen = single.info.settings
+    if kind is Kind.MLP and "deep" in chosen:
+      out["layers"] = tuple(chosen["deep"]["layers"])
+    elif "config" in chosen:
+      out["widths"] = ()
+      out["hidden"] = chosen["config"]["hidden"]
+  return out
 
 
 def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
@@ -524,19 +567,23 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
                               "folds >= 2")
   fitted, table = [], {}
-  names = [candidate_name(c) for c in (AUTO_CANDIDATES if candidates is None else candidates)]
+  names = with_ensembles([candidate_name(c) for c in (
+      AUTO_CANDIDATES if candidates is None else candidates)], kwargs.pop("ensemble", 1))
   names_in = None if kwargs.get("inputs") is None else list(kwargs["inputs"])
   with warnings.catch_warnings(record=True) as heard:
     warnings.simplefilter("always", FewStatesWarning)
     for name in names:
-      kind, fixed = AUTO[name]
+      kind = AUTO[split_ensemble(name)[0]][0]
       t0 = time.perf_counter()
-      one = {} if seeded(kind.value) else {"ensemble": 1}  # LS, POLY: no seeds
+      own = _candidate_options(name, {k: v["estimator"] for k, v in table.items()})
+      if "hidden" in own:
+        own["config"] = dataclasses.replace(kwargs.get("config", mlp.LMConfig()),
+                                            hidden=own.pop("hidden"))
       reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
           counts[:, :static_columns]
       est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,
                 box_columns=static_columns,
-                **{**kwargs, **one, **fixed,
+                **{**kwargs, **own,
                    "inputs": None if names_in is None else names_in[:reads.shape[1]]})
       table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
                      "seconds": time.perf_counter() - t0, "estimator": est}

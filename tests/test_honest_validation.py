@@ -12,6 +12,7 @@ import pytest
 from calibrate import __main__ as cli
 from calibrate import csvfile, estimators, methods, splits
 from calibrate.parts import deep, mlp
+from util import errors
 
 
 def _ar1(n, phi, channels, rng):
@@ -251,6 +252,29 @@ def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_
     part = est.parts[est.pick[j]]
     assert part.kind.value == m
     np.testing.assert_array_equal(est.predict(x[:50])[:, j], part.predict(x[:50])[:, j])
+
+
+@pytest.mark.slow  # ~9 s on 2 cores (two widths' compilations): the inner loop leaves it out
+def test_auto_weighs_each_network_alone_and_as_the_mean_of_an_ensemble():
+  x, y = _mixed(300)
+  g = splits.groups(len(x), "blocks", block=50)
+  est, table = estimators.fit_auto(x, y, g, 2, candidates=("LS", "NN"), ensemble=3,
+                                   config=mlp.LMConfig(hidden=8, epochs=8), widths=(4, 8),
+                                   seed=0)
+  assert list(table) == ["LS", "NN", "NNx3"]  # the single network first: simpler, cheaper
+  single, mean = table["NN"]["estimator"], table["NNx3"]["estimator"]
+  assert len(mean.root.members) == 3 and not hasattr(single.root, "members")
+  # the mean takes the width its single network chose on the folds, not a second choice
+  assert mean.info.settings["config"]["hidden"] == single.info.settings["config"]["hidden"]
+  assert "width_cv" in single.info.settings and "width_cv" not in mean.info.settings
+  # the mean's held-out error is its own: three networks' mean on every fold
+  assert table["NNx3"]["cv_rmse"] != table["NN"]["cv_rmse"]
+  for j, m in enumerate(est.info.validation["chosen"]):
+    np.testing.assert_array_equal(est.predict(x[:40])[:, j],
+                                  table[m]["estimator"].predict(x[:40])[:, j])
+  assert methods.candidate_name("MLPx5") == "MLPx5"
+  with pytest.raises(errors.SettingError, match="LSx3"):
+    methods.candidate_name("LSx3")  # no random start: its seeds would agree
 
 
 @pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out

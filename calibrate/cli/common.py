@@ -146,9 +146,11 @@ def training_args(p: argparse.ArgumentParser) -> None:
   rails_args(p)
   preparation_args(p)
   p.add_argument("--ensemble", type=int, default=None,
-                 help="LSANN and NN (also within auto): the mean of networks from this "
-                      "many seeds, which predict --std spreads; at few load states 5 "
-                      "interpolate better than one (default 1)")
+                 help="LSANN, NN and MLP: the mean of networks from this many seeds, which "
+                      "predict --std spreads; at few load states 5 interpolate better than "
+                      "one (default 1). With --method auto, each network's mean (NNx5) is "
+                      "weighed beside the single network, kept where it beats it by more "
+                      "than a standard error")
 
 
 WIDTHS = (5, 10, 20, 40, 64)  # --hidden auto's candidates
@@ -422,3 +424,12 @@ def print_candidates(est, candidates: dict) -> None:
         f"{v:11.4g}{'*' if chosen[j] == method else ' '}" for j, v in enumerate(row["cv_rmse"]))
         + f" {row['seconds']:8.1f}")
   print("held-out RMSE per output (grouped cross-validation); * the method kept for it")
+
+
+def ensemble_hint(candidates: dict) -> None:
+  """Says how to weigh ensembles when `auto` weighed single networks only."""
+  from calibrate import methods
+  if not any(methods.split_ensemble(m)[1] > 1 for m in candidates) and any(
+      methods.seeded(methods.AUTO[m][0].value) for m in candidates if m in methods.AUTO):
+    print("each network from one seed: --ensemble 5 weighs each one's mean of five beside it "
+          "(about five times its fit time)")

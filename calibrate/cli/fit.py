@@ -44,6 +44,7 @@ def run(args) -> int:
     est = common.with_preparation(est, args.prepared)
     est.save(args.out)
     common.print_candidates(est, candidates)
+    common.ensemble_hint(candidates)
     if args.dt is not None and est.memory is None:
       print("memory front end not kept: no output's held-out error fell by more than a "
             "standard error with it")
