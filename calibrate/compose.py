@@ -23,7 +23,8 @@ from typing import Optional
 import numpy as np
 
 from calibrate.cexport.emitter import literal
-from calibrate.parts.base import Part, Stream, check_shapes
+from calibrate.parts.base import (Part, Stream, box_point, check_shapes, emit_box_point,
+                                  read_beyond)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -170,16 +171,19 @@ def emit_estimate(part: Part, em, label: str, c: int, a: int, dest: str,
 @dataclasses.dataclass(frozen=True)
 class PerOutput(Part):
   """Each output j from part pick[j]. Beyond the training box [lo, hi] (the raw inputs'),
-  each part that is not `tame` (a network) is evaluated at the box's nearest point and
-  continued along the plane of the `guard` part (the LS one): part(clip(x)) + LS(x) -
-  LS(clip(x)). A network's held-out score says nothing of inputs past the box, where it may
-  bend anywhere (measured on the footpad's 1.5 mm presses past 0.5-1 mm training: NN-only Fz
-  NRMSE 6.6 % where LS keeps 0.9 %); the plane is the tamest continuation the data support,
-  and it meets the network at the box's faces."""
+  each part that is not `tame` (a network) is evaluated at c, where the line from the box's
+  centre to x leaves the box (`base.toward_centre`; `beyond` "clip": each input clipped
+  alone, as files written before 2026-11-27 do), and continued along the plane of the
+  `guard` part (the LS one): part(c) + LS(x) - LS(c). A network's held-out score says
+  nothing of inputs past the box, where it may bend anywhere (measured on the footpad's
+  1.5 mm presses past 0.5-1 mm training: NN-only Fz NRMSE 6.6 % where LS keeps 0.9 %); the
+  plane is the tamest continuation the data support, and it meets the network at the box's
+  faces."""
   parts: tuple
   pick: tuple
   lo: Optional[np.ndarray] = None
   hi: Optional[np.ndarray] = None
+  beyond: str = "centre"
   NAME, LABEL = "per_output", "AUTO"
 
   @property
@@ -210,7 +214,7 @@ class PerOutput(Part):
     each = [p.mean_spread(x, stream) for p in self.parts]
     ls = self.guard
     if ls is not None and ((x < self.lo) | (x > self.hi)).any():
-      inside = np.clip(x, self.lo, self.hi)
+      inside = box_point(x, self.lo, self.hi, self.beyond)
       plane = self.parts[ls].mean_spread(x)[0] - self.parts[ls].mean_spread(inside)[0]
       for k, p in enumerate(self.parts):
         if not p.tame:
@@ -223,7 +227,7 @@ class PerOutput(Part):
 
   def leaves(self):
     arrays = {} if self.lo is None else {"lo": self.lo, "hi": self.hi}
-    return arrays, {"pick": list(self.pick)}
+    return arrays, {"pick": list(self.pick), "beyond": self.beyond}
 
   @classmethod
   def from_leaves(cls, spec, arrays, children) -> "PerOutput":
@@ -235,7 +239,7 @@ class PerOutput(Part):
     if "lo" in arrays:
       c = max(p.n_inputs for p in parts)
       check_shapes("training box", arrays, {"lo": (c,), "hi": (c,)})
-    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"))
+    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"), read_beyond(spec))
 
   def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> list[str]:
     """Each part into its own row of part[K][A], then each output from its part's row; the
@@ -246,10 +250,10 @@ class PerOutput(Part):
     ls = self.guard
     if ls is not None:
       lo, hi = em.array("BOX_LO", self.lo), em.array("BOX_HI", self.hi)
-      body += [f"  float inside[{c}], plane[{a}];",
-               f"  for (int i = 0; i < {c}; ++i) inside[i] = x[i] < {lo}[i] ? {lo}[i] : "
-               f"(x[i] > {hi}[i] ? {hi}[i] : x[i]);"]
-      # the LS part at the box's nearest point (x shadowed by it in the block)
+      point = emit_box_point(lo, hi, "x", "inside", c, self.beyond, pad="  ")
+      body += [f"  float inside[{c}], plane[{a}];"] + (
+          point if self.beyond == "clip" else ["  {"] + ["  " + p for p in point] + ["  }"])
+      # the LS part where the line to the box's centre leaves it (x shadowed by it there)
       body += self._at_box(emit_estimate(self.parts[ls], em, self.parts[ls].label, c, a,
                                            "plane", "BOX_"))
     for k, part in enumerate(self.parts):

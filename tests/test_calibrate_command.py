@@ -283,10 +283,35 @@ def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cr
     assert (tmp_path / "estimator.c").read_text().count("_LIN_COEF[") == 2
 
 
+def _toward_centre(x, lo, hi):
+  """Each row pulled along the line to the box's centre until inside (written out here,
+  apart from `calibrate.parts.base`): the smallest share of each input's half-width."""
+  centre, half = (lo + hi) / 2, (hi - lo) / 2
+  t = np.minimum(1.0, np.min(half / np.maximum(np.abs(x - centre), 1e-300), axis=1))
+  return centre + t[:, None] * (x - centre)
+
+
+def test_the_point_past_the_box_keeps_the_inputs_pattern():
+  from calibrate.parts.base import toward_centre
+  lo, hi = np.array([0.0, 0.0, 10.0]), np.array([2.0, 4.0, 20.0])
+  x = np.array([[1.0, 2.0, 15.0], [3.0, 2.0, 15.0], [5.0, 8.0, 15.0], [-1.0, 6.0, 25.0]])
+  got = toward_centre(x, lo, hi)
+  np.testing.assert_array_equal(got[0], x[0])  # inside: itself
+  np.testing.assert_allclose(got[1:], _toward_centre(x[1:], lo, hi))
+  # on the box's surface, on the line from the centre: the same direction, shorter
+  d, e = got - (lo + hi) / 2, x - (lo + hi) / 2
+  assert np.all(np.isclose(np.max(np.abs(d) / ((hi - lo) / 2), axis=1)[1:], 1.0))
+  np.testing.assert_allclose(np.cross(d, e), 0, atol=1e-12)
+  # a constant input is held at its value
+  flat = toward_centre(x, np.array([0.0, 0.0, 15.0]), np.array([2.0, 4.0, 15.0]))
+  assert np.all(flat[:, 2] == 15.0)
+
+
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path):
   """AUTO keeping a network: inside the training box it is the network; past the box it is
-  the network at the box's nearest point plus the LS plane's rise, in Python and in C."""
+  the network where the line to the box's centre leaves the box plus the LS plane's rise
+  from there, in Python and in C."""
   from calibrate import splits
   counts, forces = _data()
   est, _ = estimators.fit_auto(counts, forces, splits.groups(len(counts), "blocks", block=100),
@@ -300,7 +325,7 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
   with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
     got_in, got = est.predict(inside), est.predict(beyond)
-    box = np.clip(beyond, est.info.input_lo, est.info.input_hi)
+    box = _toward_centre(beyond, est.info.input_lo, est.info.input_hi)
     part, lin = est.parts[nets[0]], est.parts[ls]
     want = part.predict(box) + lin.predict(beyond) - lin.predict(box)
   for j, k in enumerate(est.pick):
@@ -314,8 +339,9 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_path):
   """Targets that are each channel's cube, no cross terms: `auto` keeps POLY-CH (the
-  simplest within a standard error of the best); past the box the cube is taken at the box
-  and continued along the LS plane, not grown as a cube, in Python and in C."""
+  simplest within a standard error of the best); past the box the cube is taken where the
+  line to the box's centre leaves it and continued along the LS plane, not grown as a
+  cube, in Python and in C."""
   from calibrate import splits
   rng = np.random.default_rng(4)
   counts = rng.uniform(500, 3500, (900, 3))
@@ -329,7 +355,7 @@ def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_
   with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
     got = est.predict(beyond)
-    box = np.clip(beyond, est.info.input_lo, est.info.input_hi)
+    box = _toward_centre(beyond, est.info.input_lo, est.info.input_hi)
     cubic, lin = est.parts[est.pick[0]], est.parts[est.guard()]
     np.testing.assert_allclose(got, cubic.predict(box) + lin.predict(beyond)
                                - lin.predict(box), rtol=1e-12)

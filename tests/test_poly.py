@@ -48,17 +48,22 @@ def test_beyond_the_box_it_grows_linearly_along_its_tangent_plane():
   x, y = _data()
   fit = poly.fit(x, y, 3)
   edge = x[np.argmax(x[:, 3])]
-  steps = edge + np.outer([0, 10, 20, 40, 80], [0, 0, 0, 1.0])
+  # out along the line from the box's centre through a point on its face
+  ray = (edge - (x.min(axis=0) + x.max(axis=0)) / 2) / 100
+  steps = edge + np.outer([0, 10, 20, 40, 80], ray)
   f = fit.predict(steps)
   # equal steps, equal increments: a straight line, however curved the cubic was
   np.testing.assert_allclose(np.diff(f, axis=0) / [[1], [1], [2], [4]],
                              np.repeat(np.diff(f, axis=0)[:1], 4, axis=0), rtol=1e-9)
   # continuous at the box, and its slope is the polynomial's there
   h = 1e-4
-  inside = fit.predict(edge[None] - [[0, 0, 0, h]])
+  inside = fit.predict(edge[None] - h * ray)
   slope = (f[1] - f[0]) / 10
   np.testing.assert_allclose(slope, (f[0] - inside[0]) / h, rtol=1e-3,
                              atol=1e-6 * np.abs(slope).max())
+  # off that line too it stays continuous at the face: no jump where the box ends
+  side = edge + np.array([[0, 0, 0, -1e-9], [0, 0, 0, 1e-9]]) * np.ptp(x[:, 3])
+  np.testing.assert_allclose(*fit.predict(side), rtol=1e-6)
 
 
 def test_cross_terms_beat_the_per_channel_cubic_on_coupled_channels_held_out():

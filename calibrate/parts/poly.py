@@ -7,8 +7,8 @@ evaluated beyond the training range explodes (R^2 of -2480 % across recordings o
 sensor). Here the features are every monomial of the standardised inputs z of total degree
 1..d (`powers`), fitted with a ridge weight by SVD of the centred features (never forming
 the normal matrix), and the prediction outside the training box [lo, hi] of z continues
-along the tangent plane at the nearest point of the box: f(z) = f(c) + grad f(c) . (z - c),
-c = clip(z, lo, hi). Inside the box it is the polynomial itself, identical to scikit-learn's
+along the tangent plane at the point c where the line from the box's centre to z leaves
+the box: f(z) = f(c) + grad f(c) . (z - c), c = `base.toward_centre`(z, lo, hi). Inside the box it is the polynomial itself, identical to scikit-learn's
 `PolynomialFeatures(d, include_bias=False)` + `Ridge(alpha)` on the same z.
 """
 
@@ -20,7 +20,7 @@ import itertools
 import numpy as np
 import scipy.linalg
 
-from calibrate.parts.base import Part, check_shapes
+from calibrate.parts.base import Part, box_point, check_shapes, emit_box_point, read_beyond
 from util import errors
 
 
@@ -77,6 +77,9 @@ class PolyFit(Part):
     ridge: the ridge weight it was fitted with (on the sum of squares, as scikit-learn's
       `Ridge(alpha)`).
     rank: numerical rank of the centred features.
+    beyond: where past the box its tangent is taken: "centre", where the line from the
+      box's centre leaves the box (`base.toward_centre`); "clip", each input clipped alone
+      (files written before 2026-11-27).
   """
   mean: np.ndarray
   scale: np.ndarray
@@ -87,6 +90,7 @@ class PolyFit(Part):
   bias: np.ndarray
   ridge: float
   rank: int
+  beyond: str = "centre"
 
   @property
   def degree(self) -> int:
@@ -96,10 +100,10 @@ class PolyFit(Part):
     return (np.asarray(x, float) - self.mean) / self.scale
 
   def predict(self, x: np.ndarray) -> np.ndarray:
-    """(N, A) outputs from (N, C) inputs: the polynomial inside the training box, its tangent
-    plane at the nearest point of the box outside it."""
+    """(N, A) outputs from (N, C) inputs: the polynomial inside the training box, outside it
+    its tangent plane where the line from the box's centre leaves the box."""
     z = self.standardise(x)
-    c = np.clip(z, self.lo, self.hi)
+    c = box_point(z, self.lo, self.hi, self.beyond)
     f = monomials(c, self.powers) @ self.coef + self.bias
     out = np.any(z != c, axis=1)
     if out.any():
@@ -119,17 +123,31 @@ class PolyFit(Part):
     return self.coef.shape[1]
 
   def leaves(self) -> tuple[dict, dict]:
-    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": self.ridge, "rank": self.rank}
+    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": self.ridge, "rank": self.rank,
+                                                        "beyond": self.beyond}
 
   @classmethod
   def from_leaves(cls, spec, arrays, children=None) -> "PolyFit":
     fit = cls(*(arrays[f] for f in ("mean", "scale", "lo", "hi")),
               np.asarray(arrays["powers"]).astype(int), arrays["coef"], arrays["bias"],
-              float(spec["ridge"]), int(spec["rank"]))
+              float(spec["ridge"]), int(spec["rank"]), read_beyond(spec))
     c, (t, a) = len(fit.mean), np.shape(fit.coef) if np.ndim(fit.coef) == 2 else (-1, -1)
     check_shapes("polynomial", arrays, {"scale": (c,), "lo": (c,), "hi": (c,),
                                         "powers": (t, c), "bias": (a,)})
     return fit
+
+  def _box_point_c(self, mean: str, inv: str, lo: str, hi: str, c: int) -> list[str]:
+    """z[] standardised, zc[] its point on the box, dz[] = z - zc and `outside` (in one loop
+    for "clip", as files written before keep their C)."""
+    step = ["      dz[i] = z[i] - zc[i];", "      outside |= dz[i] != 0.0f;", "    }"]
+    if self.beyond == "clip":
+      return [f"    for (int i = 0; i < {c}; ++i) {{",
+              f"      z[i] = (x[i] - {mean}[i]) * {inv}[i];",
+              f"      zc[i] = z[i] < {lo}[i] ? {lo}[i] : (z[i] > {hi}[i] ? {hi}[i] : z[i]);",
+              *step]
+    return [f"    for (int i = 0; i < {c}; ++i) z[i] = (x[i] - {mean}[i]) * {inv}[i];",
+            *emit_box_point(lo, hi, "z", "zc", c, self.beyond),
+            f"    for (int i = 0; i < {c}; ++i) {{", *step]
 
   def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
     """The polynomial, continued along its tangent plane beyond the training box, as
@@ -145,12 +163,7 @@ class PolyFit(Part):
         f"the training box */",
         f"    float z[{c}], zc[{c}], dz[{c}];",
         "    int outside = 0;",
-        f"    for (int i = 0; i < {c}; ++i) {{",
-        f"      z[i] = (x[i] - {mean}[i]) * {inv}[i];",
-        f"      zc[i] = z[i] < {lo}[i] ? {lo}[i] : (z[i] > {hi}[i] ? {hi}[i] : z[i]);",
-        "      dz[i] = z[i] - zc[i];",
-        "      outside |= dz[i] != 0.0f;",
-        "    }",
+        *self._box_point_c(mean, inv, lo, hi, c),
         f"    for (int j = 0; j < {a}; ++j) {acc}[j] += {bias}[j];",
         f"    for (int t = 0; t < {t}; ++t) {{",
         f"      const unsigned char *e = &{pw}[t * {c}];",
