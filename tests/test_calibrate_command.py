@@ -337,6 +337,25 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_auto_keeping_a_mean_of_networks_exports_it(tmp_path):
+  """An ensemble `auto` keeps (NNx2) is a mean of networks inside its per-output part: the C
+  averages the members as `predict` does, inside the box and beyond it."""
+  from calibrate import splits
+  counts, forces = _data(600)
+  est, table = estimators.fit_auto(counts, forces, splits.groups(600, "blocks", block=100), 3,
+                                   candidates=("NNx2",), config=FAST, seed=1)
+  assert est.info.validation["chosen"] == ["NNx2"] * 3 and list(table) == ["NNx2"]
+  assert len(est.parts[est.pick[0]].members) == 2
+  test = np.random.default_rng(9).integers(0, 4095, (300, 6))
+  with __import__("warnings").catch_warnings():
+    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
+    want = est.predict(test.astype(float))
+  c_out = cexport.run_on_host(est, test, cc=CC)
+  assert np.max(np.abs(c_out - want) / np.abs(want).max(axis=0)) < 1e-5
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_path):
   """Targets that are each channel's cube, no cross terms: `auto` keeps POLY-CH (the
   simplest within a standard error of the best); past the box the cube is taken where the
