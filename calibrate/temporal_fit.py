@@ -58,9 +58,10 @@ def fit_temporal(kind, counts, forces, dt, *, segments=None, select=None, contac
   return est
 
 
-def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, taus=None,
-                      candidates=TAU_CANDIDATES, max_taus=3, differences=True, tare=None,
-                      seed=0, inputs=None, input_units=None, static=None, **kwargs):
+def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, contact=None,
+                      taus=None, candidates=TAU_CANDIDATES, max_taus=3, differences=True,
+                      tare=None, seed=0, inputs=None, input_units=None, static=None,
+                      **kwargs):
   """`fit_auto` with memory among its candidates: a front end (its time constants chosen on
   held-out recordings as `fit_temporal` chooses them), then every static candidate on its
   counts and `methods.MEMORY_CANDIDATES` on its features, each output kept from the
@@ -74,9 +75,9 @@ def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, tau
   n, c = counts.shape
   segments = np.zeros(n, int) if segments is None else np.asarray(segments)
   names = tuple(inputs) if inputs is not None else tuple(f"in{k}" for k in range(c))
-  memory, _ = build_memory(counts, forces, dt, segments, np.ones(n, bool), (None, None), tare,
-                           differences, taus, candidates, max_taus, folds, seed)
-  feats = memory.features(counts, segments)
+  memory, _ = build_memory(counts, forces, dt, segments, np.ones(n, bool), (contact, None),
+                           tare, differences, taus, candidates, max_taus, folds, seed)
+  feats = memory.features(counts, segments, contact)
   est, table = methods.fit_auto(
       feats, forces, groups, folds,
       tuple(static or methods.AUTO_CANDIDATES) + methods.MEMORY_CANDIDATES,

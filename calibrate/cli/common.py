@@ -86,6 +86,11 @@ def preparation_args(p: argparse.ArgumentParser) -> None:
                  help="re-zero each input during unloaded intervals, those where the LS map's "
                       "normal force (--drift-axis) reads under NEWTONS for 21 samples; "
                       "needs the time column")
+  p.add_argument("--contact-column", default=None, metavar="FLAG",
+                 help="re-zero each input during unloaded intervals as --track-drift does, "
+                      "those being where the column FLAG is 0 (a contact flag: 0/1 or "
+                      "false/true) rather than where a force reads low; predict and evaluate "
+                      "read the same column; needs the time column")
   p.add_argument("--drift-axis", default=None, metavar="TARGET",
                  help="--track-drift: the target that is the normal force (default: the "
                       "third target, or the only one of a one-axis sensor)")
@@ -276,9 +281,11 @@ def training_data(args):
   x, y = ready.x, ready.y
   args.prepared = ready.record
   args.recording = recording  # each row's recording: the temporal front end's segments
+  args.contact = contact_flag(table, getattr(args, "contact_column", None), ready.rows)
   args.dt = sample_time(table, args, ready.rows, recording) \
       if getattr(args, "history", None) is not None or getattr(args, "track_drift", None) \
-      is not None or getattr(args, "method", None) == "gru" else None
+      is not None or args.contact is not None or getattr(args, "method", None) == "gru" \
+      else None
   try:
     groups = splits_lib.groups(len(x), args.split, recording, x)
   except errors.SettingError as err:  # too few rows or recordings: say which file
@@ -292,20 +299,46 @@ def training_data(args):
 
 def static_only(what: str, args) -> None:
   """Refuses the temporal front end's options where they would not be read."""
-  if args.history is not None or args.track_drift is not None:
-    raise errors.SettingError(f"{what} compares static estimators: --history and "
-                              f"--track-drift go with fit (--method auto among them)")
+  if args.history is not None or args.track_drift is not None or \
+     args.contact_column is not None:
+    raise errors.SettingError(f"{what} compares static estimators: --history, --track-drift "
+                              f"and --contact-column go with fit (--method auto among them)")
+
+
+FLAG_WORDS = {"0": False, "1": True, "false": False, "true": True}
+
+
+def contact_flag(table, name, rows) -> "np.ndarray | None":
+  """(len(rows),) bool: the contact flag column `name` at `rows` (None without a name); a
+  value other than 0/1 is refused, naming the column and the values found."""
+  if name is None:
+    return None
+  (k,) = table.columns([name], "--contact-column")
+  values = table.data[rows, k]
+  bad = ~np.isin(values, (0.0, 1.0))
+  if bad.any():
+    found = ", ".join(f"{v:g}" for v in np.unique(values[bad])[:5])
+    raise errors.DataError(f"{table.path}: --contact-column {name} holds {found}: a contact "
+                           f"flag is 0 (unloaded) or 1 (loaded)")
+  return values == 1.0
 
 
 def drift_tare(args, outputs):
   """The drift tracker's rule of --track-drift and --drift-axis (None without them): the
   normal force is the named target, else the third, else a one-axis sensor's only one."""
+  from calibrate.parts import memory
+  flag = getattr(args, "contact_column", None)
+  if flag is not None:
+    if args.track_drift is not None or args.drift_axis is not None:
+      raise errors.SettingError(f"--contact-column {flag} says where the sensor is unloaded: "
+                                f"--track-drift's force threshold and --drift-axis are then "
+                                f"not read; give one of the two ways")
+    return memory.Tare()
   if args.track_drift is None:
     if args.drift_axis is not None:
       raise errors.SettingError("--drift-axis names the normal force of --track-drift: give "
                                 "--track-drift NEWTONS too")
     return None
-  from calibrate.parts import memory
   outputs = list(outputs)
   if args.drift_axis is not None:
     if args.drift_axis not in outputs:
@@ -355,18 +388,21 @@ def fit_auto(args, x, y, groups, names):
                  progress=quiet if args.no_progress else progress_bar("training"), **names)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
     return estimators.fit_auto_temporal(
-        x, y, args.dt, groups, args.folds, segments=args.recording,
+        x, y, args.dt, groups, args.folds, segments=args.recording, contact=args.contact,
         taus=None if args.history == "auto" else (args.history or ()),
         tare=drift_tare(args, names["outputs"]), **options)
   return estimators.fit_auto(x, y, groups, args.folds, **options)
 
 
-def with_preparation(est, record: dict):
+def with_preparation(est, args):
   """The estimator with the preparation its inputs had (unwrap periods, tare rule) in its
-  settings, which `predict`, `evaluate` and the C export apply to new recordings."""
+  settings, which `predict`, `evaluate` and the C export apply to new recordings, and the
+  contact flag column its drift tare reads (--contact-column), which they read too."""
   import dataclasses
+  more = {"contact_column": args.contact_column} \
+      if getattr(args, "contact", None) is not None and est.memory is not None else {}
   return dataclasses.replace(est, info=dataclasses.replace(
-      est.info, settings={**est.info.settings, "prepare": record}))
+      est.info, settings={**est.info.settings, "prepare": args.prepared, **more}))
 
 
 def new_recording(est, args, targets: bool = False):
@@ -391,6 +427,15 @@ def new_recording(est, args, targets: bool = False):
   for line in table.cleaned + ready.said:
     print(line)
   return table, ready
+
+
+def stream_of(est, table, ready) -> dict:
+  """`predict`'s keywords for a recording `table` (its rows `ready.rows`): the contact flag
+  an estimator fitted with --contact-column reads, from the same column."""
+  flag = (est.info.settings.get("contact_column") if est.info is not None else None)
+  if flag is None:
+    return {}
+  return {"contact": contact_flag(table, flag, ready.rows)}
 
 
 # what the held-out error answers with each split: how far off ...

@@ -78,7 +78,7 @@ def run(args) -> int:
   est = estimators.Estimator.load(args.estimator)
   table, ready = common.new_recording(est, args, targets=True)
   x, truth = ready.x, ready.y  # the truth tared by the same rule, as in training
-  pred = est.predict(x)
+  pred = est.predict(x, **common.stream_of(est, table, ready))
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)
   info = est.info

@@ -41,7 +41,7 @@ def run(args) -> int:
   table, x, y, groups, names = common.training_data(args)
   if args.method == "auto":
     est, candidates = common.fit_auto(args, x, y, groups, names)
-    est = common.with_preparation(est, args.prepared)
+    est = common.with_preparation(est, args)
     est.save(args.out)
     common.print_candidates(est, candidates)
     common.ensemble_hint(candidates)
@@ -67,12 +67,12 @@ def run(args) -> int:
       est = estimators.fit(kind, x, y, seed=args.seed, **names, **shared)
     else:
       est = estimators.fit_temporal(
-          kind, x, y, args.dt, segments=args.recording, seed=args.seed,
+          kind, x, y, args.dt, segments=args.recording, contact=args.contact, seed=args.seed,
           taus=None if args.history == "auto" else (args.history or ()),
           differences=args.history is not None,
           tare=common.drift_tare(args, names["outputs"]),
           gru=common.gru_config(args), **names, **shared)
-    est = common.with_preparation(est, args.prepared)
+    est = common.with_preparation(est, args)
   except errors.DataError as err:  # say which file, and how many rows it gave
     raise errors.DataError(f"{table.path}: {len(table.data)} data row(s), "
                            f"{args.val_fraction:.0%} of them held out for validation: "
@@ -196,7 +196,8 @@ def memory_line(mem, chosen: bool) -> str:
   return (f"memory front end: high-pass time constants {taus} s"
           + (" (chosen on held-out recordings)" if chosen else "")
           + f", first differences {'kept' if mem.differences else 'not kept'}"
-          + (f", drift tare below {mem.tare.threshold:g} N" if mem.tare is not None else ""))
+          + ("" if mem.tare is None else ", drift tare where the contact flag is 0"
+             if mem.detector is None else f", drift tare below {mem.tare.threshold:g} N"))
 
 
 def poly_lines(settings: dict) -> str:

@@ -30,7 +30,7 @@ def run(args) -> int:
     est.info.half_width(args.interval)  # a level out of range, or no interval: say so first
   table, ready = common.new_recording(est, args)
   x = ready.x
-  pred, sd = est.predict(x, return_std=True)
+  pred, sd = est.predict(x, return_std=True, **common.stream_of(est, table, ready))
   names, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
   a = len(est.info.outputs)
   if args.std:
