@@ -88,8 +88,8 @@ def preparation_args(p: argparse.ArgumentParser) -> None:
                       "needs the time column")
   p.add_argument("--contact-column", default=None, metavar="FLAG",
                  help="re-zero each input during unloaded intervals as --track-drift does, "
-                      "those being where the column FLAG is 0 (a contact flag: 0/1 or "
-                      "false/true) rather than where a force reads low; predict and evaluate "
+                      "those being where the column FLAG is 0 (a contact flag of 0s and 1s) "
+                      "rather than where a force reads low; predict and evaluate "
                       "read the same column; needs the time column")
   p.add_argument("--drift-axis", default=None, metavar="TARGET",
                  help="--track-drift: the target that is the normal force (default: the "
@@ -303,9 +303,6 @@ def static_only(what: str, args) -> None:
      args.contact_column is not None:
     raise errors.SettingError(f"{what} compares static estimators: --history, --track-drift "
                               f"and --contact-column go with fit (--method auto among them)")
-
-
-FLAG_WORDS = {"0": False, "1": True, "false": False, "true": True}
 
 
 def contact_flag(table, name, rows) -> "np.ndarray | None":
