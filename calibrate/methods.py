@@ -539,10 +539,11 @@ def with_ensembles(names: list, ensemble: int) -> list:
   return list(dict.fromkeys(out))
 
 
-def _candidate_options(name: str, fitted: dict) -> dict:
+def _candidate_options(name: str, fitted: dict, config) -> dict:
   """The options that set candidate `name` apart from the fit's: its family's fixed ones,
-  its ensemble size; a mean of networks takes the width or layers its single network chose
-  (in `fitted` {name: estimator}) rather than choosing them again."""
+  its ensemble size; a mean of networks takes the width (into `config`, the fit's LM
+  settings) or layers its single network chose (in `fitted` {name: estimator}) rather than
+  choosing them again."""
   base, n = split_ensemble(name)
   kind, fixed = AUTO[base]
   out = {**fixed, "ensemble": n}
@@ -553,7 +554,7 @@ def _candidate_options(name: str, fitted: dict) -> dict:
       out["layers"] = tuple(chosen["deep"]["layers"])
     elif "config" in chosen:
       out["widths"] = ()
-      out["hidden"] = chosen["config"]["hidden"]
+      out["config"] = dataclasses.replace(config, hidden=chosen["config"]["hidden"])
   return out
 
 
@@ -575,10 +576,8 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
     for name in names:
       kind = AUTO[split_ensemble(name)[0]][0]
       t0 = time.perf_counter()
-      own = _candidate_options(name, {k: v["estimator"] for k, v in table.items()})
-      if "hidden" in own:
-        own["config"] = dataclasses.replace(kwargs.get("config", mlp.LMConfig()),
-                                            hidden=own.pop("hidden"))
+      own = _candidate_options(name, {k: v["estimator"] for k, v in table.items()},
+                               kwargs.get("config", mlp.LMConfig()))
       reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
           counts[:, :static_columns]
       est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,
