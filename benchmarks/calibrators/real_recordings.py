@@ -19,8 +19,9 @@ simulated sensors are cut into such recordings:
     test run too little error (measured: Fz 0.016 against 0.027 N);
   - shell_static: a weight in a few poses: 48 static wrenches held 2 s each (about 200
     near-identical samples per state), tested on 48 others.
-Every method of `calibrate` (LS, POLY with cross terms, LSANN, NN, and `auto`, which keeps the
-best per axis on held-out recordings) is fitted with grouped cross-validation over the
+Every candidate of `calibrate`'s `auto` (LS, each channel's powers, POLY with cross terms,
+LSANN, NN and the perceptron MLP, each network alone and as the mean of `ensemble`) and
+`auto` itself, which keeps the best per axis on held-out recordings, is fitted with grouped cross-validation over the
 training recordings; beside it scikit-learn's LinearRegression, PolynomialFeatures(3) with
 RidgeCV over the same grouped folds, and MLPRegressor(64, 64) with early stopping. For each:
 NRMSE and R^2 per axis on the test recordings, fit seconds, and for this project's methods
