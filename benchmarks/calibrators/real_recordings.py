@@ -15,8 +15,9 @@ simulated sensors are cut into such recordings:
     57-91 % of the test session, with sessions 87-100 %);
   - shell: the calibration run's frames recorded in 5 sessions, each its own seed, with
     stray infrared light on (an offset wandering over seconds, `stray_ir`); tested on the
-    test run's frames, recorded likewise in 5 other sessions. Ten-second pieces of one run would share its slow state and promise the
-    test run too little error (measured: Fz 0.016 against 0.027 N);
+    test run's frames, recorded likewise in 5 other sessions. Ten-second pieces of one run
+    would share its slow state and promise the test run too little error (measured: Fz
+    0.016 against 0.027 N);
   - shell_static: a weight in a few poses: 48 static wrenches held 2 s each (about 200
     near-identical samples per state), tested on 48 others.
 Every candidate of `calibrate`'s `auto` (LS, each channel's powers, POLY with cross terms,
