@@ -22,8 +22,8 @@ simulated sensors are cut into such recordings:
     near-identical samples per state), tested on 48 others.
 Every candidate of `calibrate`'s `auto` (LS, each channel's powers, POLY with cross terms,
 LSANN, NN and the perceptron MLP, each network alone and as the mean of `ensemble`) and
-`auto` itself, which keeps the best per axis on held-out recordings, is fitted with grouped cross-validation over the
-training recordings; beside it scikit-learn's LinearRegression, PolynomialFeatures(3) with
+`auto` itself, which keeps the best per axis on held-out recordings, is fitted with grouped
+cross-validation over the training recordings; beside it scikit-learn's LinearRegression, PolynomialFeatures(3) with
 RidgeCV over the same grouped folds, and MLPRegressor(64, 64) with early stopping. For each:
 NRMSE and R^2 per axis on the test recordings, fit seconds, and for this project's methods
 the share of test samples inside the 95 % interval, beside what the LSANN paper's split

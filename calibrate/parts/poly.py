@@ -8,7 +8,8 @@ sensor). Here the features are every monomial of the standardised inputs z of to
 1..d (`powers`), fitted with a ridge weight by SVD of the centred features (never forming
 the normal matrix), and the prediction outside the training box [lo, hi] of z continues
 along the tangent plane at the point c where the line from the box's centre to z leaves
-the box: f(z) = f(c) + grad f(c) . (z - c), c = `base.toward_centre`(z, lo, hi). Inside the box it is the polynomial itself, identical to scikit-learn's
+the box: f(z) = f(c) + grad f(c) . (z - c), c = `base.toward_centre`(z, lo, hi). Inside
+the box it is the polynomial itself, identical to scikit-learn's
 `PolynomialFeatures(d, include_bias=False)` + `Ridge(alpha)` on the same z.
 """
 
