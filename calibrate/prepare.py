@@ -197,11 +197,23 @@ WRAP_ALONE = 0.25  # another column's one-sample step over this share of its ran
 def unwrap(x: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
   """(x with every wrap of its registers undone, (C,) wraps undone per channel): a jump
   larger than half the period is a wrap, and the rest of the recording moves by whole
-  periods."""
+  periods. So are two steps in a row of the same sign, each over a quarter of the period and
+  together over half of it: a wrap with a logger's repaired row in its middle, interpolated
+  between the two sides (measured on the fingertip benchmark's full-scale logs: two steps of
+  -9,816 uT against a period of 19,661 uT, each under half of it; the wrap left in, LS's
+  held-out error on that recording's fold was 8.9 N against 0.03 N on the others). The
+  row between takes the mean of its unwrapped neighbours."""
   d = np.diff(x, axis=0)
-  k = np.where(np.abs(d) > period / 2, np.round(d / period), 0.0)
+  half = np.abs(d) > period / 2
+  k = np.where(half, np.round(d / period), 0.0)
+  pair = (np.abs(d[:-1]) > period / 4) & (np.abs(d[1:]) > period / 4) & \
+      (np.sign(d[:-1]) == np.sign(d[1:])) & (np.abs(d[:-1] + d[1:]) > period / 2) & \
+      ~half[:-1] & ~half[1:]
+  rows, cols = np.nonzero(pair)
+  k[rows + 1, cols] = np.round((d[rows, cols] + d[rows + 1, cols]) / period[cols])
   out = x.copy()
   out[1:] -= np.cumsum(k, axis=0) * period
+  out[rows + 1, cols] = (out[rows, cols] + out[rows + 2, cols]) / 2
   return out, (k != 0).sum(axis=0)
 
 

@@ -91,6 +91,31 @@ def test_wraps_planted_every_n_samples_are_all_found_and_undone_exactly():
   assert prepare.lsb(true[:, 0]) == pytest.approx(lsb)
 
 
+def test_a_wrap_with_a_repaired_row_in_its_middle_is_undone():
+  """A logger's repaired row interpolated across a wrap splits it into two steps, each under
+  half the period: both are one wrap, and the repaired row takes its neighbours' mean."""
+  rng = np.random.default_rng(8)
+  lsb, bits = 0.3, 16
+  period = 2 ** bits * lsb
+  t = np.arange(3000)
+  true = np.column_stack([1.2 * period * np.sin(t / 150), 0.3 * period * np.sin(t / 40)])
+  true += rng.normal(0, 3, true.shape)  # channel 0 crosses the register's ends, 1 never
+  raw = (true + period / 2) % period - period / 2
+  wraps = np.flatnonzero(np.abs(np.diff(raw[:, 0])) > period / 2) + 1
+  assert len(wraps) >= 3
+  repaired = wraps[::2]  # every other wrap gets a repaired row in its middle
+  raw[repaired, 0] = (raw[repaired - 1, 0] + raw[repaired + 1, 0]) / 2
+  back, undone = prepare.unwrap(raw, np.full(2, period))
+  assert undone.tolist() == [len(wraps), 0]
+  clean = np.setdiff1d(np.arange(3000), repaired)
+  np.testing.assert_allclose(back[clean] - back[0] + true[0], true[clean], atol=1e-6)
+  # the repaired rows: their unwrapped neighbours' mean
+  np.testing.assert_allclose(back[repaired, 0],
+                             (back[repaired - 1, 0] + back[repaired + 1, 0]) / 2)
+  # the swinging channel's steps stay under a quarter period: nothing undone there
+  np.testing.assert_array_equal(back[:, 1], raw[:, 1])
+
+
 def test_a_planted_rail_is_reported_with_its_exact_share():
   rng = np.random.default_rng(4)
   x = rng.uniform(100, 900, (1000, 3))
