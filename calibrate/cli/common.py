@@ -96,8 +96,8 @@ def preparation_args(p: argparse.ArgumentParser) -> None:
                       "third target, or the only one of a one-axis sensor)")
   p.add_argument("--unwrap", type=int, default=None, metavar="BITS",
                  help="undo wrap-around of BITS-bit registers (one-sample jumps over half "
-                      "the range, which are reported either way): +-2**BITS times the "
-                      "channel's smallest step")
+                      "the range, which are reported either way, or two in a row around a "
+                      "repaired row): +-2**BITS times the channel's smallest step")
   p.add_argument("--unwrap-period", type=float, default=None, metavar="VALUE",
                  help="as --unwrap, the period given in the inputs' units (for values not "
                       "on one grid of their bit: scaled or filtered registers)")
