@@ -69,7 +69,7 @@ QUICK_SECONDS = {
     "accuracy_vs_time": 81, "asterisk_path": 49, "circular_path": 60, "collisions": 3,
     "effect_ablation": 49, "footpad_dataset": 1, "footpad_envelope": 224,
     "footpad_table1": 141, "footpad_throughput": 39, "identify_footpad": 260,
-    "identify_shell": 23, "lm_solvers": 136, "raw_streams": 45, "real_recordings": 379,
+    "identify_shell": 23, "lm_solvers": 136, "raw_streams": 45, "real_recordings": 364,
     "reflector_slope_sweep": 21, "shell_table1": 3, "shell_temporal": 24,
     "temporal_calibrators": 337}
 HEAVY = {n for n, t in QUICK_SECONDS.items() if t > 15}
