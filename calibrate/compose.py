@@ -250,9 +250,8 @@ class PerOutput(Part):
     ls = self.guard
     if ls is not None:
       lo, hi = em.array("BOX_LO", self.lo), em.array("BOX_HI", self.hi)
-      point = emit_box_point(lo, hi, "x", "inside", c, self.beyond, pad="  ")
-      body += [f"  float inside[{c}], plane[{a}];"] + (
-          point if self.beyond == "clip" else ["  {"] + ["  " + p for p in point] + ["  }"])
+      body += [f"  float inside[{c}], plane[{a}];",
+               *emit_box_point(lo, hi, "x", "inside", c, self.beyond, pad="  ")]
       # the LS part where the line to the box's centre leaves it (x shadowed by it there)
       body += self._at_box(emit_estimate(self.parts[ls], em, self.parts[ls].label, c, a,
                                            "plane", "BOX_"))

@@ -539,11 +539,11 @@ def with_ensembles(names: list, ensemble: int) -> list:
   return list(dict.fromkeys(out))
 
 
-def _candidate_options(name: str, fitted: dict, config) -> dict:
-  """The options that set candidate `name` apart from the fit's: its family's fixed ones,
-  its ensemble size; a mean of networks takes the width (into `config`, the fit's LM
-  settings) or layers its single network chose (in `fitted` {name: estimator}) rather than
-  choosing them again."""
+def _candidate_options(name: str, fitted: dict, config) -> tuple[Kind, dict]:
+  """(candidate `name`'s method, the options that set it apart from the fit's): its
+  family's fixed ones, its ensemble size; a mean of networks takes the width (into
+  `config`, the fit's LM settings) or layers its single network chose (in `fitted` {name:
+  estimator}) rather than choosing them again."""
   base, n = split_ensemble(name)
   kind, fixed = AUTO[base]
   out = {**fixed, "ensemble": n}
@@ -555,7 +555,7 @@ def _candidate_options(name: str, fitted: dict, config) -> dict:
     elif "config" in chosen:
       out["widths"] = ()
       out["config"] = dataclasses.replace(config, hidden=chosen["config"]["hidden"])
-  return out
+  return kind, out
 
 
 def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
@@ -574,10 +574,9 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
   with warnings.catch_warnings(record=True) as heard:
     warnings.simplefilter("always", FewStatesWarning)
     for name in names:
-      kind = AUTO[split_ensemble(name)[0]][0]
       t0 = time.perf_counter()
-      own = _candidate_options(name, {k: v["estimator"] for k, v in table.items()},
-                               kwargs.get("config", mlp.LMConfig()))
+      kind, own = _candidate_options(name, {k: v["estimator"] for k, v in table.items()},
+                                     kwargs.get("config", mlp.LMConfig()))
       reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
           counts[:, :static_columns]
       est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,

@@ -103,7 +103,6 @@ def check_shapes(what: str, arrays: dict[str, np.ndarray], shapes: dict[str, tup
     raise ValueError(f"the {what}'s arrays {', '.join(bad)} do not fit together")
 
 
-
 BEYOND = ("centre", "clip")  # where a part past its box is taken from (`box_point`)
 
 
@@ -118,8 +117,12 @@ def emit_box_point(lo: str, hi: str, src: str, dst: str, c: int, beyond: str,
   """C lines setting `dst`[c] to `box_point` of `src`[c]."""
   if beyond == "centre":
     return emit_toward_centre(lo, hi, src, dst, c, pad)
-  return [f"{pad}for (int i = 0; i < {c}; ++i) {dst}[i] = {src}[i] < {lo}[i] ? {lo}[i] : "
-          f"({src}[i] > {hi}[i] ? {hi}[i] : {src}[i]);"]
+  return [f"{pad}for (int i = 0; i < {c}; ++i) {dst}[i] = {clip_c(src, lo, hi)};"]
+
+
+def clip_c(src: str, lo: str, hi: str) -> str:
+  """The C expression of `src`[i] clipped to [`lo`[i], `hi`[i]]."""
+  return f"{src}[i] < {lo}[i] ? {lo}[i] : ({src}[i] > {hi}[i] ? {hi}[i] : {src}[i])"
 
 
 def read_beyond(spec: dict) -> str:
@@ -155,15 +158,17 @@ def toward_centre(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 def emit_toward_centre(lo: str, hi: str, src: str, dst: str, c: int, pad: str = "    "
                        ) -> list[str]:
   """C lines setting float `dst`[c] to `toward_centre` of float `src`[c], the box in the
-  arrays named `lo` and `hi`."""
-  return [f"{pad}float pull = 1.0f;",
-          f"{pad}for (int i = 0; i < {c}; ++i) {{",
-          f"{pad}  float hw = 0.5f * ({hi}[i] - {lo}[i]), dv = fabsf({src}[i] - 0.5f * ({lo}[i] "
-          f"+ {hi}[i]));",
-          f"{pad}  if (hw > 0.0f && dv > hw && hw / dv < pull) pull = hw / dv;",
-          f"{pad}}}",
-          f"{pad}for (int i = 0; i < {c}; ++i) {{",
-          f"{pad}  float mid = 0.5f * ({lo}[i] + {hi}[i]);",
-          f"{pad}  {dst}[i] = !({hi}[i] > {lo}[i]) ? {lo}[i] : "
+  arrays named `lo` and `hi`: one block, so its locals stay its own."""
+  return [f"{pad}{{",
+          f"{pad}  float pull = 1.0f;",
+          f"{pad}  for (int i = 0; i < {c}; ++i) {{",
+          f"{pad}    float hw = 0.5f * ({hi}[i] - {lo}[i]), dv = fabsf({src}[i] - 0.5f * "
+          f"({lo}[i] + {hi}[i]));",
+          f"{pad}    if (hw > 0.0f && dv > hw && hw / dv < pull) pull = hw / dv;",
+          f"{pad}  }}",
+          f"{pad}  for (int i = 0; i < {c}; ++i) {{",
+          f"{pad}    float mid = 0.5f * ({lo}[i] + {hi}[i]);",
+          f"{pad}    {dst}[i] = !({hi}[i] > {lo}[i]) ? {lo}[i] : "
           f"(pull < 1.0f ? mid + pull * ({src}[i] - mid) : {src}[i]);",
+          f"{pad}  }}",
           f"{pad}}}"]

@@ -21,7 +21,8 @@ import itertools
 import numpy as np
 import scipy.linalg
 
-from calibrate.parts.base import Part, box_point, check_shapes, emit_box_point, read_beyond
+from calibrate.parts.base import (Part, box_point, check_shapes, clip_c, emit_box_point,
+                                  read_beyond)
 from util import errors
 
 
@@ -144,7 +145,7 @@ class PolyFit(Part):
     if self.beyond == "clip":
       return [f"    for (int i = 0; i < {c}; ++i) {{",
               f"      z[i] = (x[i] - {mean}[i]) * {inv}[i];",
-              f"      zc[i] = z[i] < {lo}[i] ? {lo}[i] : (z[i] > {hi}[i] ? {hi}[i] : z[i]);",
+              f"      zc[i] = {clip_c('z', lo, hi)};",
               *step]
     return [f"    for (int i = 0; i < {c}; ++i) z[i] = (x[i] - {mean}[i]) * {inv}[i];",
             *emit_box_point(lo, hi, "z", "zc", c, self.beyond),
