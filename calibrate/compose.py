@@ -5,9 +5,8 @@
   transform at predict; here the transform y - base(x) depends on x, so the two add.
 - `Mean(members)`: the mean of parts fitted from several seeds (`VotingRegressor`), and their
   spread.
-- `PerOutput(parts, pick, lo, hi, weights)`: each output from one part, or the weighted mean
-  of several (`fit_auto`'s choice), the network parts continued along the LS part's plane
-  beyond the training box [lo, hi].
+- `PerOutput(parts, pick, lo, hi)`: each output from one part (`fit_auto`'s choice), the
+  network parts continued along the LS part's plane beyond the training box [lo, hi].
 - `Chain(front, stage)`: a temporal front end (`calibrate.parts.memory.Memory`) turning the
   recording into features, then a stage reading them (`Pipeline`; equinox marks its
   stateful layers the same way).
@@ -179,31 +178,13 @@ class PerOutput(Part):
   nothing of inputs past the box, where it may bend anywhere (measured on the footpad's
   1.5 mm presses past 0.5-1 mm training: NN-only Fz NRMSE 6.6 % where LS keeps 0.9 %); the
   plane is the tamest continuation the data support, and it meets the network at the box's
-  faces.
-
-  `weights` (K, A), each column summing to 1: output j is the weighted mean of the parts
-  (None: part pick[j] alone; `pick[j]` is then the first part of nonzero weight)."""
+  faces."""
   parts: tuple
   pick: tuple
   lo: Optional[np.ndarray] = None
   hi: Optional[np.ndarray] = None
   beyond: str = "centre"
-  weights: Optional[np.ndarray] = None
   NAME, LABEL = "per_output", "AUTO"
-
-  @property
-  def weight(self) -> np.ndarray:
-    """(K, A) each part's weight in each output (one-hot at `pick` without `weights`)."""
-    if self.weights is not None:
-      return np.asarray(self.weights, float)
-    out = np.zeros((len(self.parts), len(self.pick)))
-    out[list(self.pick), np.arange(len(self.pick))] = 1.0
-    return out
-
-  @property
-  def used(self) -> list[int]:
-    """The parts some output reads, in order."""
-    return [k for k in range(len(self.parts)) if self.weight[k].any()]
 
   @property
   def n_inputs(self) -> int:
@@ -215,7 +196,7 @@ class PerOutput(Part):
 
   @property
   def tame(self) -> bool:
-    return all(self.parts[k].tame for k in self.used)
+    return all(self.parts[k].tame for k in self.pick)
 
   @property
   def guard(self) -> Optional[int]:
@@ -239,17 +220,13 @@ class PerOutput(Part):
         if not p.tame:
           mean, spread = p.mean_spread(inside)
           each[k] = (mean + plane, spread)
-    w = self.weight[:, None, :]
-    mean = np.sum(np.stack([m for m, _ in each]) * w, axis=0)
-    # the members' spreads added as they would be if they moved together (an upper bound)
-    spread = np.sum(np.stack([np.zeros_like(m) if s is None else s for m, s in each]) * w,
-                    axis=0)
-    return mean, spread
+    cols = np.arange(len(self.pick))
+    mean = np.stack([m for m, _ in each])[list(self.pick), :, cols].T
+    spreads = [np.zeros_like(m) if s is None else s for m, s in each]
+    return mean, np.stack(spreads)[list(self.pick), :, cols].T
 
   def leaves(self):
     arrays = {} if self.lo is None else {"lo": self.lo, "hi": self.hi}
-    if self.weights is not None:
-      arrays["weights"] = np.asarray(self.weights, float)
     return arrays, {"pick": list(self.pick), "beyond": self.beyond}
 
   @classmethod
@@ -261,16 +238,8 @@ class PerOutput(Part):
       raise ValueError("its parts do not fit its outputs")
     if "lo" in arrays:
       c = max(p.n_inputs for p in parts)
-      check_shapes("training box", {k: arrays[k] for k in ("lo", "hi")},
-                   {"lo": (c,), "hi": (c,)})
-    weights = arrays.get("weights")
-    if weights is not None:
-      check_shapes("output weights", {"weights": weights},
-                   {"weights": (len(parts), len(pick))})
-      if (weights < 0).any() or not np.allclose(weights.sum(axis=0), 1.0) or \
-         not all(weights[k, j] > 0 for j, k in enumerate(pick)):
-        raise ValueError("its output weights are not each output's mean of its parts")
-    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"), read_beyond(spec), weights)
+      check_shapes("training box", arrays, {"lo": (c,), "hi": (c,)})
+    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"), read_beyond(spec))
 
   def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> list[str]:
     """Each part into its own row of part[K][A], then each output from its part's row; the
@@ -289,15 +258,10 @@ class PerOutput(Part):
     for k, part in enumerate(self.parts):
       lines = emit_estimate(part, em, part.label, c, a, f"part[{k}]", f"P{k}_")
       body += self._at_box(lines) if ls is not None and not part.tame else lines
-    weight = self.weight
-    for j in range(a):
-      terms = []
-      for k in np.flatnonzero(weight[:, j]):
-        one = f"part[{k}][{j}]"
-        if ls is not None and not self.parts[k].tame:
-          one += f" + part[{ls}][{j}] - plane[{j}]"
-        terms.append(one if weight[k, j] == 1.0 else f"{literal(weight[k, j])} * ({one})")
-      body.append(f"  out[{j}] = " + " + ".join(terms) + ";")
+    for j, k in enumerate(self.pick):
+      guarded = ls is not None and not self.parts[k].tame
+      body.append(f"  out[{j}] = part[{k}][{j}]" + (f" + part[{ls}][{j}] - plane[{j}];"
+                                                    if guarded else ";"))
     return body
 
   @staticmethod

@@ -101,10 +101,8 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
              candidates: Optional[Sequence] = None, progress=None, **kwargs
              ) -> tuple[Estimator, dict]:
   """Every candidate fitted and cross-validated on the same grouped folds; for each output,
-  the equal mean of the candidates whose held-out RMSE is within one standard error over
-  the folds (or `TIE`) of the lowest, where that mean holds out better than the simplest
-  of them (in the order of `candidates`), else that simplest one (`methods._auto_weights`).
-  Its interval and held-out RMSE are the kept mean's own. `candidates`: names of
+  the simplest (in the order of `candidates`) whose held-out RMSE is within one standard
+  error over the folds (or `TIE`) of the lowest. `candidates`: names of
   `methods.AUTO` (or methods, each its plain fit); None: `methods.AUTO_CANDIDATES`, LS,
   each channel's powers (POLY-CH), POLY with cross terms, LSANN and NN.
 

@@ -107,12 +107,6 @@ class Estimator:
   def pick(self) -> tuple[int, ...]:
     return self._stage.pick if isinstance(self._stage, compose.PerOutput) else ()
 
-  @property
-  def weights(self) -> np.ndarray:
-    """AUTO: (K, A) each part's weight in each output (`compose.PerOutput.weight`)."""
-    return self._stage.weight if isinstance(self._stage, compose.PerOutput) else \
-        np.zeros((0, self.root.n_outputs))
-
   def guard(self) -> Optional[int]:
     """AUTO: the index of its LS part, whose plane carries the network parts beyond the
     training box (None: no LS part, or no network part, or no training range)."""

@@ -406,18 +406,12 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
                        options["net_inputs"], tuple(options["snapshots"]))
 
 
-def fit(kind, counts, forces, **options):
+def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fraction=0.15,
+        seed=0, progress=None, degree=3, snapshots=(), val_block=None, ensemble=1, inputs=None,
+        outputs=None, input_units=None, output_units=None, groups=None, folds=0, cross=False,
+        ridge=None, widths=(), net_inputs=None, gp=None, deep=None, layers=None,
+        box_columns=None):
   """`calibrate.estimators.fit` (its docstring says what each option does)."""
-  return fit_held_out(kind, counts, forces, **options)[0]
-
-
-def fit_held_out(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(),
-                 val_fraction=0.15, seed=0, progress=None, degree=3, snapshots=(),
-                 val_block=None, ensemble=1, inputs=None, outputs=None, input_units=None,
-                 output_units=None, groups=None, folds=0, cross=False, ridge=None, widths=(),
-                 net_inputs=None, gp=None, deep=None, layers=None, box_columns=None):
-  """(`fit`'s estimator, its held-out residuals (N, A) of the grouped cross-validation
-  (None without folds), each sample's distance beyond its fold's box (N,) or None)."""
   counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
                          net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
   named = names(counts.shape[1], forces.shape[1], inputs, outputs, input_units, output_units)
@@ -443,19 +437,19 @@ def fit_held_out(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig()
     how, cv = _deep_layers(how, layers, counts, forces, groups, folds, val, seed, settings)
   where = groups if groups is not None else len(counts)
   fitted = how.fit(counts, forces, where, val, seed, linear_fit, progress)
-  extra, residual, distance = {}, None, None
+  extra = {}
   if folds:
     residual, only, stats = cv or cross_validate(how, counts, forces, groups, folds, val, seed)
     if only.any():
       fitted = dataclasses.replace(fitted, parts=tuple(
           compose.Residual(p.base, p.residual.without_outputs(only)) for p in fitted.parts))
     # the distance beyond the box over the raw counts (a front end's first columns)
-    distance = fold_distance(counts[:, :box_columns], parts)
-    extra = interval_fields(residual, only, stats, groups, named["outputs"], distance)
+    extra = interval_fields(residual, only, stats, groups, named["outputs"],
+                            fold_distance(counts[:, :box_columns], parts))
   out = [Estimator(kind, p, i, training=t) for p, i, t in
          zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
              fitted.trainings)]
-  return (out[0] if len(out) == 1 else combine(out)), residual, distance
+  return out[0] if len(out) == 1 else combine(out)
 
 
 def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settings):
@@ -536,8 +530,7 @@ def split_ensemble(name: str) -> tuple[str, int]:
 
 def with_ensembles(names: list, ensemble: int) -> list:
   """`names` with each network's mean of `ensemble` networks right after it (`ensemble` > 1):
-  the single network first, so the one-standard-error rule keeps the mean only where its
-  gain shows."""
+  the single network first, so one-SE keeps the mean only where its gain shows."""
   out = []
   for name in names:
     out.append(name)
@@ -574,7 +567,7 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
   if groups is None or folds < 2:
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
                               "folds >= 2")
-  fitted, table, held = [], {}, []
+  fitted, table = [], {}
   names = with_ensembles([candidate_name(c) for c in (
       AUTO_CANDIDATES if candidates is None else candidates)], kwargs.pop("ensemble", 1))
   names_in = None if kwargs.get("inputs") is None else list(kwargs["inputs"])
@@ -586,51 +579,30 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
                                      kwargs.get("config", mlp.LMConfig()))
       reads = counts if static_columns is None or name in MEMORY_CANDIDATES else \
           counts[:, :static_columns]
-      est, residual, distance = fit_held_out(
-          kind, reads, forces, groups=groups, folds=folds, progress=progress,
-          box_columns=static_columns,
-          **{**kwargs, **own, "inputs": None if names_in is None else names_in[:reads.shape[1]]})
+      est = fit(kind, reads, forces, groups=groups, folds=folds, progress=progress,
+                box_columns=static_columns,
+                **{**kwargs, **own,
+                   "inputs": None if names_in is None else names_in[:reads.shape[1]]})
       table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
                      "seconds": time.perf_counter() - t0, "estimator": est}
       fitted.append(est)
-      held.append(residual)
   _say_once(heard)
-  weights = _auto_weights(names, fitted, np.stack(held), forces)
+  best = select.one_standard_error(
+      np.array([e.info.validation["cv_rmse"] for e in fitted]),
+      np.array([e.info.validation["cv_fold_rmse"] for e in fitted]),
+      np.abs(np.asarray(forces, float)).max(axis=0))
   # LS stays a part even where no output keeps it: its plane continues the networks beyond
   # the training box (`compose.PerOutput`)
   ls = [k for k, e in enumerate(fitted) if e.kind is Kind.LS]
-  used = sorted(set(np.flatnonzero(weights.any(axis=1)).tolist()) | set(ls))
-  weights = weights[used]
-  pick = tuple(np.argmax(weights > 0, axis=0).tolist())
-  info = _auto_info([fitted[k] for k in used], [names[k] for k in used], weights,
-                    np.einsum("ka,kna->na", weights, np.stack(held)[used]), distance, groups,
-                    table)
+  used = sorted(set(best.tolist()) | set(ls))
+  pick = tuple(used.index(k) for k in best)
+  info = _auto_info([fitted[k] for k in best], [names[k] for k in best],
+                    fitted[used[0]].info, table)
   # the box of every column: the parts reading fewer take its first ones
   width = max(fitted[k].root.n_inputs for k in used)
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick,
-                           np.min(counts[:, :width], axis=0), np.max(counts[:, :width], axis=0),
-                           weights=None if set(weights.ravel()) <= {0.0, 1.0} else weights)
+                           np.min(counts[:, :width], axis=0), np.max(counts[:, :width], axis=0))
   return Estimator(Kind.AUTO, root, info), table
-
-
-def _auto_weights(names: list, fitted: list, residual: np.ndarray, forces) -> np.ndarray:
-  """(K, A) each candidate's weight in each output: the mean of the candidates within one
-  standard error of the best (`select.mean_of_near`), where it holds out better than the
-  simplest of them. A memory candidate joins only a mean of memory candidates, so memory is
-  kept only where its gain over every static candidate exceeds a standard error; a single
-  network does not join its own ensemble's mean (it is one of its members)."""
-  near = select.near_best(np.array([e.info.validation["cv_rmse"] for e in fitted]),
-                          np.array([e.info.validation["cv_fold_rmse"] for e in fitted]),
-                          np.abs(np.asarray(forces, float)).max(axis=0))
-  first = np.argmax(near, axis=0)
-  memory = np.array([n in MEMORY_CANDIDATES for n in names])
-  near &= (memory[:, None] == memory[first][None, :])
-  for k, name in enumerate(names):
-    base, n = split_ensemble(name)
-    if n > 1 and base in names:
-      near[names.index(base)] &= ~near[k]
-  first = np.argmax(near, axis=0)
-  return select.mean_of_near(residual, near, first)
 
 
 def _say_once(heard) -> None:
@@ -641,23 +613,26 @@ def _say_once(heard) -> None:
     warnings.warn(message, category, stacklevel=3)
 
 
-def _auto_info(parts: list, part_names: list, weights: np.ndarray, residual: np.ndarray,
-               distance, groups, table: dict) -> Info:
-  """AUTO's `Info`: each output's spread the weighted mean of its parts'; its interval and
-  held-out RMSE from its own held-out residuals (N, A), the weighted mean of its parts'."""
-  first = parts[0].info
-  chosen = [" & ".join(part_names[k] for k in np.flatnonzero(weights[:, j]))
-            for j in range(weights.shape[1])]
-  ls_only = [n for j, n in enumerate(first.outputs)
-             if any(n in parts[k].info.validation.get("ls_only", [])
-                    for k in np.flatnonzero(weights[:, j]))]
-  parts_of_folds = splits.folds(groups, first.validation["folds"], first.settings["seed"])
-  stats = {**select.stats(residual, parts_of_folds, groups), "ls_only": ls_only,
-           "chosen": chosen, "candidates": {k: v["cv_rmse"] for k, v in table.items()}}
-  fields = held_out(residual, groups, stats, distance)
+def _auto_info(chosen, chosen_names, first: Info, table: dict) -> Info:
+  """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate."""
+  infos = [e.info for e in chosen]
+  cols = range(len(chosen))
   return dataclasses.replace(
-      first, residual_sd=np.einsum("ka,ka->a", weights,
-                                   np.stack([p.info.residual_sd for p in parts])),
+      first, residual_sd=np.array([i.residual_sd[j] for j, i in zip(cols, infos)]),
+      interval_abs=np.column_stack([i.interval_abs[:, j] for j, i in zip(cols, infos)]),
+      interval_offsets=None if infos[0].interval_offsets is None else np.column_stack(
+          [i.interval_offsets[:, j] for j, i in zip(cols, infos)]),
+      interval_growth=None if infos[0].interval_growth is None else np.array(
+          [i.interval_growth[j] for j, i in zip(cols, infos)]),
       settings={"method": "AUTO", "candidates": list(table),
                 "seed": first.settings.get("seed"),
-                "integer_inputs": first.settings.get("integer_inputs")}, **fields)
+                "integer_inputs": first.settings.get("integer_inputs")},
+      validation={**{k: v for k, v in first.validation.items()
+                     if k in ("split", "groups", "block", "folds")},
+                  "cv_rmse": [i.validation["cv_rmse"][j] for j, i in zip(cols, infos)],
+                  "chosen": list(chosen_names),
+                  "held_out_beyond_box": min(i.validation.get("held_out_beyond_box", 0)
+                                             for i in infos),
+                  "candidates": {k: v["cv_rmse"] for k, v in table.items()},
+                  "ls_only": [n for j, n in enumerate(first.outputs)
+                              if n in infos[j].validation.get("ls_only", [])]})

@@ -9,8 +9,8 @@ candidate's held-out residuals; the rules below read them:
   candidate with the lowest held-out error),
 - `greedy` (time constants added one at a time while each lowers the error by `GAIN`),
 - `ls_only` (LSANN's outputs whose network does not beat its LS stage held out),
-- `one_standard_error` (per output, the simplest candidate within one standard error of the
-  best), `mean_of_near` (`fit_auto`: per output, the mean of the candidates within it).
+- `one_standard_error` (`fit_auto`: per output, the simplest candidate within one standard
+  error of the best).
 """
 
 from __future__ import annotations
@@ -81,40 +81,17 @@ def ls_only(full_rmse: np.ndarray, base_rmse: np.ndarray) -> np.ndarray:
   return base_rmse <= full_rmse
 
 
-def near_best(rmse: np.ndarray, fold_rmse: np.ndarray, scale: np.ndarray) -> np.ndarray:
-  """(K, A) True where a candidate's held-out RMSE is within one standard error over the
-  folds of the lowest for that output, and within `TIE` in any case (Hastie, Tibshirani &
-  Friedman, Elements of Statistical Learning, Sec. 7.10): a smaller difference is not one
-  the held-out groups can tell. rmse (K, A), fold_rmse (K, F, A); scale (A,) the outputs'
-  size, for ties at rounding."""
+def one_standard_error(rmse: np.ndarray, fold_rmse: np.ndarray, scale: np.ndarray
+                       ) -> np.ndarray:
+  """(A,) for each output, the first candidate (the simplest, in order) whose held-out RMSE
+  is within one standard error over the folds of the lowest, and within `TIE` in any case
+  (Hastie, Tibshirani & Friedman, Elements of Statistical Learning, Sec. 7.10): a smaller
+  difference is not one the held-out groups can tell, and a simpler model extrapolates
+  tamer. rmse (K, A), fold_rmse (K, F, A); scale (A,) the outputs' size, for ties at
+  rounding."""
   lowest_k = np.argmin(rmse, axis=0)
   cols = np.arange(rmse.shape[1])
   se = fold_rmse[lowest_k, :, cols].std(axis=1, ddof=1) / np.sqrt(fold_rmse.shape[1])
-  return rmse <= rmse[lowest_k, cols] + np.maximum(se, TIE * rmse[lowest_k, cols]) \
+  near = rmse <= rmse[lowest_k, cols] + np.maximum(se, TIE * rmse[lowest_k, cols]) \
       + 1e-12 * scale
-
-
-def one_standard_error(rmse: np.ndarray, fold_rmse: np.ndarray, scale: np.ndarray
-                       ) -> np.ndarray:
-  """(A,) for each output, the first candidate (the simplest, in order) `near_best`: a
-  simpler model extrapolates tamer."""
-  return np.argmax(near_best(rmse, fold_rmse, scale), axis=0)
-
-
-def mean_of_near(residual: np.ndarray, near: np.ndarray, first: np.ndarray) -> np.ndarray:
-  """(K, A) weights: each output the equal mean of the candidates `near` (K, A) marks,
-  where that mean's held-out RMSE (from the candidates' residuals (K, N, A), the same
-  folds) is below the candidate `first` (A,)'s, else `first` alone. Candidates the held-out
-  groups cannot tell apart were fitted differently (another basis, another network), so
-  where they differ past the data their errors differ too, and their mean has the smaller
-  expected error (Breiman 1996, "Stacked regressions"; Hastie et al. Sec. 8.8)."""
-  k, _, a = residual.shape
-  weights = np.zeros((k, a))
-  for j in range(a):
-    w = near[:, j] / near[:, j].sum()
-    mean = np.tensordot(w, residual[:, :, j], axes=1)
-    if near[:, j].sum() > 1 and np.mean(mean ** 2) < np.mean(residual[first[j], :, j] ** 2):
-      weights[:, j] = w
-    else:
-      weights[first[j], j] = 1.0
-  return weights
+  return np.argmax(near, axis=0)

@@ -64,8 +64,8 @@ def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, con
                       **kwargs):
   """`fit_auto` with memory among its candidates: a front end (its time constants chosen on
   held-out recordings as `fit_temporal` chooses them), then every static candidate on its
-  counts and `methods.MEMORY_CANDIDATES` on its features, each output kept from those within
-  a standard error of the best (`methods.fit_auto`). The features run per recording (no filter
+  counts and `methods.MEMORY_CANDIDATES` on its features, each output kept from the
+  simplest within a standard error of the best. The features run per recording (no filter
   crosses a boundary, a held-out recording's first samples read unwarmed filters as at use),
   and the memory candidates come last: kept only where their held-out gain over every
   static candidate exceeds a standard error (`static`: their names, default
@@ -82,8 +82,7 @@ def fit_auto_temporal(counts, forces, dt, groups, folds=5, *, segments=None, con
       feats, forces, groups, folds,
       tuple(static or methods.AUTO_CANDIDATES) + methods.MEMORY_CANDIDATES,
       static_columns=c, seed=seed, inputs=memory.names(names), **kwargs)
-  kept = {n for kept in est.info.validation["chosen"] for n in kept.split(" & ")} & \
-      set(methods.MEMORY_CANDIDATES)
+  kept = set(est.info.validation["chosen"]) & set(methods.MEMORY_CANDIDATES)
   info = raw_info(est.info, names, input_units, counts, forces,
                   memory.settings() if kept else None)
   if not kept and memory.tare is None:  # the static parts read the counts themselves

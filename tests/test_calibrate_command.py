@@ -383,60 +383,6 @@ def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_
   assert np.max(np.abs(c_out - want) / np.abs(want).max(axis=0)) < 1e-5
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-def test_auto_keeping_the_mean_of_candidates_it_cannot_tell_apart_exports_it(tmp_path):
-  """Outputs that a straight line and a cubic fit equally well held out: `auto` keeps their
-  mean (the simplest alone where the mean holds out no better); the file keeps the weights,
-  the C computes the mean as `predict` does (beyond the box too), and a file whose weights
-  are not a mean is refused by name."""
-  from calibrate import splits
-  from util import errors, files
-  rng = np.random.default_rng(5)
-  counts = rng.uniform(500, 3500, (900, 3))
-  z = (counts - 2000) / 1000
-  forces = np.column_stack([z @ [1.0, -0.5, 0.2], z[:, 1] + 0.05 * z[:, 2] ** 2]) \
-      + rng.normal(0, 0.3, (900, 2))
-  est, table = estimators.fit_auto(counts, forces, splits.groups(900, "blocks", block=90), 3,
-                                   candidates=("LS", "POLY-CH", "POLY"), seed=1)
-  means = [j for j, kept in enumerate(est.info.validation["chosen"]) if " & " in kept]
-  assert means, est.info.validation["chosen"]
-  beyond = np.round(rng.uniform(0, 4095, (300, 3)))
-  with __import__("warnings").catch_warnings():
-    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
-    got = est.predict(beyond)
-    for j in means:  # the equal mean of its candidates' own estimates, continued alike
-      kept = est.info.validation["chosen"][j].split(" & ")
-      np.testing.assert_allclose(got[:, j], np.mean(
-          [_continued(table[m]["estimator"], table["LS"]["estimator"], beyond)[:, j]
-           for m in kept], axis=0), rtol=1e-10)
-  est.save(tmp_path / "a.npz")
-  back = estimators.Estimator.load(tmp_path / "a.npz")
-  with __import__("warnings").catch_warnings():
-    __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
-    np.testing.assert_array_equal(back.predict(beyond), got)
-  c_out = cexport.run_on_host(est, beyond, cc=CC)
-  assert np.max(np.abs(c_out - got) / np.abs(got).max(axis=0)) < 1e-5
-  with np.load(tmp_path / "a.npz") as f:
-    arrays = {k: f[k] for k in f.files}
-  meta = files.from_json(str(arrays.pop("meta")))
-  key = next(k for k in arrays if k.endswith("weights"))
-  arrays[key] = arrays[key] * 2
-  meta["sha256"] = files.array_digest(arrays)
-  np.savez(tmp_path / "b.npz", meta=files.json_text(meta), **arrays)
-  with pytest.raises(errors.DataError, match="output weights"):
-    estimators.Estimator.load(tmp_path / "b.npz")
-
-
-def _continued(part, ls, x):
-  """A candidate's estimate as AUTO continues it past its box (written out here): a tame one
-  (LS, POLY's own tangent) is itself, another (a channel cube, a network) is taken where
-  the line to the box's centre leaves the box and continued along the LS plane."""
-  if part.root.tame:
-    return part.predict(x)
-  box = _toward_centre(x, part.info.input_lo, part.info.input_hi)
-  return part.predict(box) + ls.predict(x) - ls.predict(box)
-
-
 def test_the_export_report_counts_a_known_network():
   """LSANN, 6 inputs, 10 hidden, 3 outputs: LS 6 x 3 = 18, network 10 x 7 + 3 x 11 + 6 + 3
   = 112, the final scaling 3: 133 multiply-adds; weights (6 + 6 + 18 + 3) + (6 + 6 + 70 +

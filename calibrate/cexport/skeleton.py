@@ -130,9 +130,8 @@ def _method_line(est) -> str:
   members, parts = est.members, est.parts
   return (f" * Method {est.kind.value}" + (f", mean of {len(members)} members" if members
                                             else "")
-          + (": " + ", ".join(f"{comment_text(n)} from " + " & ".join(
-              parts[k].kind.value for k in np.flatnonzero(est.weights[:, j]))
-              for j, n in enumerate(est.info.outputs)) if parts else "")
+          + (": " + ", ".join(f"{comment_text(n)} from {parts[k].kind.value}"
+                              for n, k in zip(est.info.outputs, est.pick)) if parts else "")
           + "; float32 weights; C99, <math.h> only.")
 
 

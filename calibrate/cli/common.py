@@ -460,14 +460,12 @@ def print_candidates(est, candidates: dict) -> None:
   """The held-out RMSE of every candidate per output, the kept one marked."""
   info = est.info
   print(f"{'method':8s} " + " ".join(f"{n:>12s}" for n in info.outputs) + f" {'fit s':>8s}")
-  chosen = [kept.split(" & ") for kept in info.validation["chosen"]]
+  chosen = info.validation["chosen"]
   for method, row in candidates.items():
     print(f"{method:8s} " + " ".join(
-        f"{v:11.4g}{'*' if method in chosen[j] else ' '}" for j, v in enumerate(row["cv_rmse"]))
+        f"{v:11.4g}{'*' if chosen[j] == method else ' '}" for j, v in enumerate(row["cv_rmse"]))
         + f" {row['seconds']:8.1f}")
-  print(f"{'kept':8s} " + " ".join(f"{v:11.4g} " for v in info.validation["cv_rmse"]))
-  print("held-out RMSE per output (grouped cross-validation); * the methods kept for it, "
-        "their mean where several")
+  print("held-out RMSE per output (grouped cross-validation); * the method kept for it")
 
 
 def ensemble_hint(candidates: dict) -> None:
