@@ -70,6 +70,29 @@ class Table:
   def column(self, name: str) -> Optional[np.ndarray]:
     return self.data[:, self.names.index(name)] if name in self.names else None
 
+  def seconds(self, name: str) -> Optional[np.ndarray]:
+    """The time column `name` in seconds, read by the unit its units row gives it (none:
+    seconds); None without the column.
+
+    Raises:
+      errors.DataError naming the file, the column and its unit when the unit is not one of
+      `TIME_UNITS`.
+    """
+    t = self.column(name)
+    if t is None:
+      return None
+    unit = self.units[self.names.index(name)].strip()
+    if unit not in TIME_UNITS:
+      raise errors.DataError(
+          f"{self.path}: the time column {name!r} is in {unit!r}, a unit this reader does "
+          f"not know: allowed {', '.join(u for u in TIME_UNITS if u)} (or no unit: seconds)")
+    return t * TIME_UNITS[unit]
+
+
+# a time column's units row, to seconds
+TIME_UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6,
+              "\u00b5s": 1e-6, "\u03bcs": 1e-6, "ns": 1e-9, "min": 60.0}
+
 
 def expand(paths: Sequence) -> list[str]:
   """The files named by `paths`, a path holding *, ? or [ read as a glob (sorted); a file
@@ -109,11 +132,37 @@ def read_many(paths: Sequence, time_column: str = "time", **cleaning
       raise errors.DataError(f"{t.path}: its columns ({', '.join(t.names)}) differ from "
                              f"{first.path}'s ({', '.join(first.names)}): recordings fitted "
                              f"together need the same columns")
+  tables = _same_units(tables, time_column)
+  first = tables[0]
   labels = np.concatenate([np.full(len(t.data), k) for k, t in enumerate(tables)])
   path = first.path if len(tables) == 1 else f"{len(tables)} recordings ({first.path}, ...)"
   return tables, Table(first.names, first.units, np.vstack([t.data for t in tables]), path,
                        np.concatenate([t.lines for t in tables]),
                        tuple(f"{t.path}: {c}" for t in tables for c in t.cleaned)), labels
+
+
+def _same_units(tables: list[Table], time_column: str) -> list[Table]:
+  """`tables` whose units rows agree: a time column in other units is read in seconds (each
+  by its own); any other column whose units two files give differently is refused, since
+  counts beside volts or N beside kN would be fitted as one quantity."""
+  first = tables[0]
+  for t in tables[1:]:
+    for name, a, b in zip(t.names, first.units, t.units):
+      if name != time_column and a and b and a != b:
+        raise errors.DataError(
+            f"{t.path}: its column {name!r} is in {b!r}, {first.path}'s in {a!r}: recordings "
+            f"fitted together need one unit per column (convert one file, or fit them apart)")
+  if time_column in first.names and len({t.units[t.names.index(time_column)]
+                                          for t in tables}) > 1:
+    k = first.names.index(time_column)
+    out = []
+    for t in tables:
+      data = t.data.copy()
+      data[:, k] = t.seconds(time_column)
+      out.append(dataclasses.replace(t, data=data, units=t.units[:k] + ("s",)
+                                     + t.units[k + 1:]))
+    return out
+  return tables
 
 
 def _number(cell: str) -> Optional[float]:

@@ -60,7 +60,7 @@ class Tare:
       reads.
     """
     if self.seconds is not None:
-      t = table.column(self.time_column)
+      t = table.seconds(self.time_column)
       if t is None:
         raise errors.DataError(f"{where}: --tare {self.seconds:g} needs a time column "
                                f"({self.time_column!r}); use --tare-column FLAG, or name it "
@@ -288,7 +288,7 @@ def _periods(tables, inputs, steps: Steps) -> np.ndarray:
 def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
   """What the estimator keeps of the preparation, for `predict`, `evaluate` and the C."""
   raw = np.vstack([t.data[:, inputs] for t in tables])
-  times = [t.column(steps.tare.time_column if steps.tare else "time") for t in tables]
+  times = [t.seconds(steps.tare.time_column if steps.tare else "time") for t in tables]
   steps_s = [np.diff(t) for t in times if t is not None and len(t) > 1]
   record = {"unwrap_periods": None if periods is None else [float(p) for p in periods],
             "tare": None if steps.tare is None else steps.tare.to_json(),

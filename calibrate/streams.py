@@ -125,7 +125,8 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
     errors.DataError when a file has no time column, the two share a column name, or
       nothing overlaps.
   """
-  ts, tr = sensor.column(time_column), reference.column(time_column)
+  # each file's stamps in seconds by its own units row (a logger's "ms" is not seconds)
+  ts, tr = sensor.seconds(time_column), reference.seconds(time_column)
   for table, t in ((sensor, ts), (reference, tr)):
     if t is None:
       raise errors.DataError(f"{table.path}: no time column {time_column!r} to merge on "

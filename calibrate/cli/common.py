@@ -355,7 +355,7 @@ def drift_tare(args, outputs):
 
 def sample_time(table, args, rows, recording) -> float:
   """s between samples: the median step of the time column within recordings."""
-  t = table.column(args.time_column)
+  t = table.seconds(args.time_column)
   if t is None:
     raise errors.SettingError(f"--history, --track-drift and --method gru read the recording "
                               f"in time: "

@@ -109,7 +109,7 @@ def run(args) -> int:
   files.write_text(out / "metrics.json", text)
   files.write_text(out / "metrics.csv", metrics_lib.csv_text(
       metrics_lib.scored("results", {est.kind.value: result})))
-  t = table.column(args.time_column)
+  t = table.seconds(args.time_column)
   t = np.arange(len(x), dtype=float) if t is None else t[ready.rows]
   label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
   figures.save(figures.over_time(t, truth, {est.kind.value: pred}, names, "/".join(

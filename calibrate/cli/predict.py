@@ -42,7 +42,7 @@ def run(args) -> int:
     names += [f"{n}_{end}" for end in ("lo", "hi") for n in est.info.outputs]
     units += units[:a] * 2
     cols += [pred - half, pred + half]
-  t = table.column(args.time_column)
+  t = table.seconds(args.time_column)
   if t is not None:
     names, units, cols = ([args.time_column] + names, ["s"] + units,
                           [t[ready.rows, None]] + cols)

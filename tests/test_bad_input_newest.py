@@ -1,0 +1,92 @@
+"""Bad input on the newest surfaces (merge, tare, multi-file fits, temporal fits, the native
+arms), each class through the command a user types: the exit code, the one line, and that
+nothing wrong was written."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from calibrate import __main__ as cli, csvfile
+from tests.test_raw_streams import LAG, _streams
+
+
+def _run(capsys, argv, code=0):
+  """(exit code checked, stdout, stderr) of `python -m calibrate ARGV`."""
+  assert cli.main([str(a) for a in argv]) == code
+  captured = capsys.readouterr()
+  assert "Traceback" not in captured.err
+  if code == 2:
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), captured.err
+  return captured.out, captured.err
+
+
+def _write(path, table, time_unit="s", scale=1.0):
+  data = table.data.copy()
+  data[:, 0] *= scale
+  units = (time_unit,) + table.units[1:]
+  csvfile.write(path, table.names, data, units)
+  return path
+
+
+# --- units rows are data ---------------------------------------------------------------------
+
+def test_merge_reads_a_reference_stamped_in_milliseconds_as_milliseconds(tmp_path, capsys):
+  sensor, reference = _streams()
+  _write(tmp_path / "a.csv", sensor)
+  _write(tmp_path / "b.csv", reference)
+  _write(tmp_path / "b_ms.csv", reference, "ms", 1e3)
+  _run(capsys, ["merge", tmp_path / "a.csv", tmp_path / "b.csv", "--lag", LAG,
+                "--out", tmp_path / "s"])
+  _run(capsys, ["merge", tmp_path / "a.csv", tmp_path / "b_ms.csv", "--lag", LAG,
+                "--out", tmp_path / "ms"])
+  want, got = csvfile.read(tmp_path / "s" / "a.csv"), csvfile.read(tmp_path / "ms" / "a.csv")
+  assert got.names == want.names and got.data.shape == want.data.shape
+  np.testing.assert_allclose(got.data, want.data, rtol=1e-12, atol=1e-12)
+
+
+def test_a_time_unit_the_reader_does_not_know_is_refused_naming_it(tmp_path, capsys):
+  sensor, reference = _streams()
+  _write(tmp_path / "a.csv", sensor)
+  _write(tmp_path / "b.csv", reference, "ticks")
+  _, err = _run(capsys, ["merge", tmp_path / "a.csv", tmp_path / "b.csv", "--out",
+                         tmp_path / "m"], 2)
+  assert "b.csv: the time column 'time' is in 'ticks'" in err and "ms" in err
+  assert not (tmp_path / "m" / "a.csv").exists()
+
+
+def _example(capsys, tmp_path):
+  _run(capsys, ["example", tmp_path / "ex"])
+  return tmp_path / "ex"
+
+
+def test_a_fit_over_files_whose_units_disagree_is_refused_naming_both(tmp_path, capsys):
+  ex = _example(capsys, tmp_path)
+  t = csvfile.read(ex / "train.csv")
+  volts = tuple("V" if n == "p3" else u for n, u in zip(t.names, t.units))
+  csvfile.write(tmp_path / "volts.csv", t.names, t.data / 1000, volts)
+  _, err = _run(capsys, ["fit", "--csv", ex / "train.csv", tmp_path / "volts.csv", "--inputs",
+                         "p*", "--targets", "Fx,Fy,Fz", "--method", "ls", "--out",
+                         tmp_path / "e.npz"], 2)
+  assert "volts.csv: its column 'p3' is in 'V'" in err and "train.csv's in 'counts'" in err
+  assert not (tmp_path / "e.npz").exists()
+
+
+def test_files_stamped_in_seconds_and_in_milliseconds_fit_as_one_clock(tmp_path, capsys):
+  ex = _example(capsys, tmp_path)
+  t = csvfile.read(ex / "train.csv")
+  half = len(t.data) // 2
+  csvfile.write(tmp_path / "a.csv", t.names, t.data[:half], t.units)
+  ms = t.data[half:].copy()
+  ms[:, 0] *= 1e3
+  csvfile.write(tmp_path / "b.csv", t.names, ms, ("ms",) + t.units[1:])
+  csvfile.write(tmp_path / "b_s.csv", t.names, t.data[half:], t.units)
+  for other, out in (("b.csv", "ms.npz"), ("b_s.csv", "s.npz")):
+    _run(capsys, ["fit", "--csv", tmp_path / "a.csv", tmp_path / other, "--inputs", "p*",
+                  "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.05",
+                  "--no-progress", "--out", tmp_path / out])
+  from calibrate import estimators
+  a, b = (estimators.Estimator.load(tmp_path / n) for n in ("ms.npz", "s.npz"))
+  x = t.data[:300, 1:7]
+  np.testing.assert_allclose(a.predict(x), b.predict(x), rtol=1e-9)
