@@ -46,7 +46,7 @@ class Tare:
       raise errors.SettingError("a tare takes either --tare SECONDS or --tare-column FLAG")
     if self.seconds is not None and not 0 < self.seconds < 1e6:
       raise errors.SettingError(f"--tare {self.seconds!r} is out of range: allowed seconds "
-                                f"> 0")
+                                f"in (0, 1e6)")
 
   def describe(self) -> str:
     return (f"the first {self.seconds:g} s of each recording" if self.seconds is not None
@@ -71,6 +71,11 @@ class Tare:
       if flag is None:
         raise errors.DataError(f"{where}: no column {self.flag!r} for --tare-column; its "
                                f"columns are {', '.join(table.names)}")
+      bad = ~np.isin(flag, (0.0, 1.0))
+      if bad.any():
+        found = ", ".join(f"{v:g}" for v in np.unique(flag[bad])[:5])
+        raise errors.DataError(f"{where}: --tare-column {self.flag} holds {found}: a contact "
+                               f"flag is 0 (unloaded) or 1 (loaded)")
       rows = np.flatnonzero(flag == 0)
     if rows.size == 0:
       raise errors.DataError(f"{where}: no unloaded row to tare on ({self.describe()})")
@@ -285,6 +290,29 @@ def _periods(tables, inputs, steps: Steps) -> np.ndarray:
   return np.array(out)
 
 
+TARE_SPREAD = 0.05  # of a column's range: more spread over the "unloaded" rows is a load
+
+
+def _tare_said(table, tare: Tare, rows, x, y, names) -> list[str]:
+  """A warning when the rows the tare takes as unloaded are not at rest: a column (input or
+  target) spanning over `TARE_SPREAD` of its range there (its 5-95 % spread, against its
+  1-99 % one over the recording) was loaded, and its median there, taken as zero, carries
+  that load into every row."""
+  values = x if y is None else np.hstack([x, y])
+  lo, hi = np.percentile(values[rows], [5, 95], axis=0)
+  full = np.ptp(np.percentile(values, [1, 99], axis=0), axis=0)
+  share = np.where(full > 0, (hi - lo) / np.where(full > 0, full, 1.0), 0.0)
+  j = int(np.argmax(share))
+  if share[j] <= TARE_SPREAD:
+    return []
+  at = values[rows, j]
+  return [f"warning: {table.path}: {tare.describe()} are not at rest: {names[j]} spans "
+          f"{at.min():.4g} to {at.max():.4g} there ({share[j]:.0%} of its range), and the "
+          f"tare takes its median, {np.median(at):.4g}, as zero in every row; give a window "
+          f"where nothing touches the sensor (--tare SECONDS) or a contact flag "
+          f"(--tare-column FLAG)"]
+
+
 def _record(tables, inputs, steps: Steps, periods, said: list[str]) -> dict:
   """What the estimator keeps of the preparation, for `predict`, `evaluate` and the C."""
   raw = np.vstack([t.data[:, inputs] for t in tables])
@@ -354,6 +382,8 @@ def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps
       keep &= ~rail.any(axis=1)
     if steps.tare is not None:
       rows = steps.tare.rows(table, table.path)
+      said += _tare_said(table, steps.tare, rows, x, y,
+                         [names[i] for i in inputs] + [names[i] for i in targets or ()])
       x = x - np.median(x[rows], axis=0)
       if y is not None:
         y = y - np.median(y[rows], axis=0)

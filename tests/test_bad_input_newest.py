@@ -90,3 +90,50 @@ def test_files_stamped_in_seconds_and_in_milliseconds_fit_as_one_clock(tmp_path,
   a, b = (estimators.Estimator.load(tmp_path / n) for n in ("ms.npz", "s.npz"))
   x = t.data[:300, 1:7]
   np.testing.assert_allclose(a.predict(x), b.predict(x), rtol=1e-9)
+
+
+# --- the tare checks what it tares ----------------------------------------------------------
+
+def test_a_tare_window_that_carries_load_is_a_warning_with_its_size(tmp_path, capsys):
+  ex = _example(capsys, tmp_path)  # train.csv presses 0-243 N in its first 0.8 s
+  out, _ = _run(capsys, ["fit", "--csv", ex / "train.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--tare", "0.8", "--out",
+                         tmp_path / "e.npz"])
+  line = next(s for s in out.splitlines() if "not at rest" in s)
+  assert line.startswith("warning: ") and "the first 0.8 s of each recording" in line
+  assert "Fz spans" in line and "of its range" in line
+
+
+def test_the_readme_streams_tare_is_at_rest_and_says_nothing(tmp_path, capsys):
+  _run(capsys, ["example", tmp_path / "s", "--streams"])
+  pairs = [tmp_path / "s" / f"train{k}_{side}.csv" for k in (1, 2, 3)
+           for side in ("sensor", "reference")]
+  _run(capsys, ["merge", *pairs, "--out", tmp_path / "m"])
+  out, _ = _run(capsys, ["fit", "--csv", tmp_path / "m" / "*.csv", "--inputs", "p*",
+                         "--targets", "F_x [N],F_y [N],F_z [N]", "--method", "ls", "--tare",
+                         "0.8", "--out", tmp_path / "e.npz"])
+  assert "not at rest" not in out and "tare: each input" in out
+
+
+def test_a_contact_flag_with_other_values_is_refused_for_the_tare(tmp_path, capsys):
+  ex = _example(capsys, tmp_path)
+  t = csvfile.read(ex / "train.csv")
+  flag = np.clip(np.floor(t.data[:, -1] / 40), 0, 5)  # 0..5 by load, as in the audit
+  csvfile.write(tmp_path / "f.csv", t.names + ("contact",), np.column_stack([t.data, flag]),
+                t.units + ("",))
+  _, err = _run(capsys, ["fit", "--csv", tmp_path / "f.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--tare-column", "contact", "--out",
+                         tmp_path / "e.npz"], 2)
+  assert "--tare-column contact holds 2, 3, 4, 5" in err and "0 (unloaded) or 1" in err
+  assert not (tmp_path / "e.npz").exists()
+
+
+@pytest.mark.parametrize("value, message", [
+    ("1e9", "allowed seconds in (0, 1e6)"), ("nan", "allowed seconds in (0, 1e6)"),
+    ("inf", "allowed seconds in (0, 1e6)")])
+def test_a_tare_window_out_of_range_names_the_real_limit(tmp_path, capsys, value, message):
+  ex = _example(capsys, tmp_path)
+  _, err = _run(capsys, ["fit", "--csv", ex / "train.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--tare", value, "--out",
+                         tmp_path / "e.npz"], 2)
+  assert message in err
