@@ -165,7 +165,7 @@ def wrap_like(x: np.ndarray, others: Optional[np.ndarray] = None) -> list[tuple[
   """(row, channel) of the jumps that look like a register wrapping, with no register width
   given: over three quarters of the channel's range in one sample, from its outer quarter on
   one side to the outer quarter on the other, and staying there (the next `WRAP_STAY`
-  samples on the far half). Half the range (the plain rule) also flags the press edges of a
+  samples on the far half, or those before a jump back as large). Half the range (the plain rule) also flags the press edges of a
   50 Hz log (measured on the example recordings: 3-6 per recording). Noise is no wrap: a
   channel whose median step is over `WRAP_NOISE` of its range, or whose range is under
   `WRAP_MIN_BITS` of its bits, is not searched (a channel at rest spans a few counts, and
@@ -185,7 +185,10 @@ def wrap_like(x: np.ndarray, others: Optional[np.ndarray] = None) -> list[tuple[
   found = []
   for row, c in candidates:
     a, b = pos[row - 1, c], pos[row, c]
-    after = pos[row:row + 1 + WRAP_STAY, c]
+    # on the far side until the next jump of the channel back over 3/4 of its range: a peak
+    # just over the register's top wraps there and back within a sample or two
+    back = [r for r, k in candidates if k == c and row < r <= row + WRAP_STAY]
+    after = pos[row:(back[0] if back else row + 1 + WRAP_STAY), c]
     stays = np.all(after > 0.5) if b > a else np.all(after < 0.5)
     alone = np.delete(step[row - 1], c).max(initial=0.0) < WRAP_ALONE
     if steady[c] and min(a, b) < 0.25 and max(a, b) > 0.75 and stays and alone:

@@ -137,3 +137,29 @@ def test_a_tare_window_out_of_range_names_the_real_limit(tmp_path, capsys, value
                          "Fx,Fy,Fz", "--method", "ls", "--tare", value, "--out",
                          tmp_path / "e.npz"], 2)
   assert message in err
+
+
+# --- wraps are reported whether or not --unwrap is given ------------------------------------
+
+def test_two_register_wraps_without_unwrap_are_reported(tmp_path, capsys):
+  """A 12-bit register whose deepest press peaks just over its top: it wraps there and back
+  within a few samples, twice in all; the fit without --unwrap names both."""
+  ex = _example(capsys, tmp_path)
+  t = csvfile.read(ex / "train.csv")
+  d = t.data.copy()
+  k = t.names.index("p6")  # the channel that never reaches the ADC rail
+  # the highest level that one run of samples alone exceeds: the register's top sits there
+  def one_run(v):
+    above = d[:, k] > v
+    return not above[0] and not above[-1] and np.count_nonzero(np.diff(above.astype(int))
+                                                                == 1) == 1
+  top = next(v for v in np.unique(d[:, k])[::-1] if one_run(v))
+  d[:, k] = np.mod(d[:, k] + (4095 - top), 4096)
+  steps = np.flatnonzero(np.abs(np.diff(d[:, k])) > 2048)
+  assert len(steps) == 2
+  csvfile.write(tmp_path / "w.csv", t.names, d, t.units)
+  out, _ = _run(capsys, ["fit", "--csv", tmp_path / "w.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--out", tmp_path / "e.npz"])
+  line = next(s for s in out.splitlines() if "one-sample jumps" in s)
+  assert f"p6 2 (line {t.lines[steps[0] + 1]}, {t.lines[steps[1] + 1]})" in line
+  assert "--unwrap" in line
