@@ -163,3 +163,27 @@ def test_two_register_wraps_without_unwrap_are_reported(tmp_path, capsys):
   line = next(s for s in out.splitlines() if "one-sample jumps" in s)
   assert f"p6 2 (line {t.lines[steps[0] + 1]}, {t.lines[steps[1] + 1]})" in line
   assert "--unwrap" in line
+
+
+# --- groups of one sample each --------------------------------------------------------------
+
+def test_groups_of_one_row_each_are_a_warning_that_says_what_the_split_means(tmp_path, capsys):
+  ex = _example(capsys, tmp_path)
+  t = csvfile.read(ex / "train.csv")
+  trial = np.arange(len(t.data), dtype=float)  # a value unique to every row
+  csvfile.write(tmp_path / "g.csv", t.names + ("trial",), np.column_stack([t.data, trial]),
+                t.units + ("",))
+  out, _ = _run(capsys, ["fit", "--csv", tmp_path / "g.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--group", "trial", "--out",
+                         tmp_path / "e.npz"])
+  line = next(s for s in out.splitlines() if s.startswith("warning: --group trial"))
+  assert f"{len(t.data)} groups of a median 1 row(s)" in line and "single samples" in line
+  # a label per press (whole presses, longer than the autocorrelation) says nothing
+  press = np.cumsum(np.r_[0, np.abs(np.diff(t.data[:, 0])) > 0.5] + (np.arange(len(t.data))
+                                                                    % 400 == 0))
+  csvfile.write(tmp_path / "p.csv", t.names + ("trial",), np.column_stack([t.data, press]),
+                t.units + ("",))
+  out, _ = _run(capsys, ["fit", "--csv", tmp_path / "p.csv", "--inputs", "p*", "--targets",
+                         "Fx,Fy,Fz", "--method", "ls", "--group", "trial", "--out",
+                         tmp_path / "e2.npz"])
+  assert "warning: --group" not in out

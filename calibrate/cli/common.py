@@ -278,6 +278,7 @@ def training_data(args):
       raise errors.SettingError(f"--group {args.group} is also an input or a target")
     column = table.data[ready.rows, g]
     recording = recording * (1 + int(np.abs(column).max())) + column
+    _say_short_groups(args, recording, ready.x)
   x, y = ready.x, ready.y
   args.prepared = ready.record
   args.recording = recording  # each row's recording: the temporal front end's segments
@@ -295,6 +296,22 @@ def training_data(args):
                input_units=[table.units[i] or "counts" for i in ins],
                output_units=[table.units[i] or "N" for i in outs])
   return table, x, y, groups, names
+
+
+def _say_short_groups(args, recording, x) -> None:
+  """A warning when --group's groups are shorter than the inputs' autocorrelation (a label
+  unique to each row, say): a held-out group's neighbours stay in training, so the held-out
+  error is the single-sample split's under another name, and flatters every method."""
+  if args.split not in ("auto", "recordings"):
+    return
+  _, sizes = np.unique(recording, return_counts=True)
+  size, memory = float(np.median(sizes)), splits_lib.block_length(x)
+  if size < memory:
+    print(f"warning: --group {args.group} gives {len(sizes)} groups of a median {size:g} "
+          f"row(s), shorter than the inputs' autocorrelation ({memory} rows): each held-out "
+          f"group's neighbours stay in training, so the held-out error is that of single "
+          f"samples held out, and flatters every method; name a column that labels whole "
+          f"recordings or trials, or use --split blocks")
 
 
 def static_only(what: str, args) -> None:
