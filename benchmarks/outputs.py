@@ -16,7 +16,6 @@ them), `table.md` (the printed report), and where the benchmark has them
 from __future__ import annotations
 
 import dataclasses
-import fcntl
 import os
 import pathlib
 from typing import Any
@@ -26,7 +25,6 @@ import numpy as np
 from calibrate import metrics
 from util import errors, files
 
-LOCK = ".run.lock"
 TABLE = "table.md"  # the printed report of a run
 
 
@@ -39,62 +37,9 @@ def quiet_out_of_range() -> None:
   warnings.filterwarnings("ignore", message=".* outside the range this estimator")
 
 
-@dataclasses.dataclass
-class Lock:
-  """This run's hold on a results folder: an open lock file under an exclusive `flock`,
-  which the system drops when the process ends, however it ends."""
-  path: pathlib.Path
-  fd: int
-
-  def release(self) -> None:
-    # unlink while still holding it: whoever opened this file meanwhile finds it replaced
-    try:
-      self.path.unlink()
-    except OSError:
-      pass
-    os.close(self.fd)
-
-
-def claim(out: pathlib.Path) -> Lock:
-  """Checks that `out` can take this run's results and locks it for this run.
-
-  Raises:
-    errors.SettingError naming --out and what to change.
-  """
-  out = pathlib.Path(out)
-  if out.exists() and not out.is_dir():
-    raise errors.SettingError(f"--out {out} is a file: give a folder for the results")
-  try:
-    out.mkdir(parents=True, exist_ok=True)
-    probe = out / f".write-test-{os.getpid()}"
-    probe.write_bytes(b"")
-    probe.unlink()
-  except OSError as err:
-    raise errors.SettingError(f"--out {out} cannot be written ({err.strerror}): give a folder "
-                              f"you can write to") from None
-  path = out / LOCK
-  for _ in range(100):  # again only if the holder released the file between open and lock
-    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
-    try:
-      fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-      holder = os.read(fd, 32).decode(errors="replace").strip()
-      os.close(fd)
-      raise errors.SettingError(
-          f"--out {out} is in use by another run"
-          + (f" (process {holder})" if holder.isdigit() else "")
-          + ": give this run another --out, or wait for that one to finish") from None
-    try:
-      current = os.stat(path).st_ino == os.fstat(fd).st_ino
-    except FileNotFoundError:
-      current = False
-    if current:
-      os.ftruncate(fd, 0)
-      os.write(fd, str(os.getpid()).encode())
-      return Lock(path, fd)
-    os.close(fd)
-  raise errors.SettingError(f"--out {out}: could not take its lock file {path}; remove it if "
-                            f"no run is using the folder")
+def claim(out: pathlib.Path) -> files.Lock:
+  """`util.files.claim` of the results folder `out` (--out)."""
+  return files.claim(out, "--out")
 
 
 # ---- what a finished run leaves in its folder -------------------------------------------

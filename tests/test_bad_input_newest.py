@@ -187,3 +187,34 @@ def test_groups_of_one_row_each_are_a_warning_that_says_what_the_split_means(tmp
                          "Fx,Fy,Fz", "--method", "ls", "--group", "trial", "--out",
                          tmp_path / "e2.npz"])
   assert "warning: --group" not in out
+
+
+# --- every command with an --out folder takes the benchmark's lock --------------------------
+
+@pytest.mark.parametrize("command", ["evaluate", "merge", "export", "example"])
+def test_a_folder_another_run_holds_is_refused_and_left_alone(tmp_path, capsys, command):
+  import os
+  import subprocess
+  import sys
+  out = tmp_path / "out"
+  holder = subprocess.Popen(
+      [sys.executable, "-c", "import sys, time; from util import files; "
+       f"files.claim({str(out)!r}); print('held', flush=True); time.sleep(60)"],
+      stdout=subprocess.PIPE, text=True, cwd=os.getcwd())
+  try:
+    assert holder.stdout.readline().strip() == "held"
+    ex = _example(capsys, tmp_path)
+    _run(capsys, ["fit", "--csv", ex / "train.csv", "--inputs", "p*", "--targets",
+                  "Fx,Fy,Fz", "--method", "ls", "--out", tmp_path / "e.npz"])
+    sensor, reference = _streams()
+    argv = {"evaluate": ["evaluate", tmp_path / "e.npz", "--csv", ex / "test.csv", "--out", out],
+            "merge": ["merge", _write(tmp_path / "a.csv", sensor),
+                      _write(tmp_path / "b.csv", reference), "--out", out],
+            "export": ["export", tmp_path / "e.npz", "--c", out],
+            "example": ["example", out]}[command]
+    _, err = _run(capsys, argv, 2)
+    assert f"{out} is in use by another run (process {holder.pid})" in err
+    assert sorted(p.name for p in out.iterdir()) == [".run.lock"]  # nothing of this run's
+  finally:
+    holder.kill()
+    holder.wait()

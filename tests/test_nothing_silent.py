@@ -263,11 +263,11 @@ def test_two_runs_never_share_an_out_folder(capsys, tmp_path):
   finally:
     holder.kill()  # killed: it never releases, its lock file stays
     holder.wait()
-  assert (tmp_path / "out" / outputs.LOCK).exists()
+  assert (tmp_path / "out" / files.LOCK).exists()
   lock = outputs.claim(tmp_path / "out")  # its run is gone: the lock is taken over
-  assert (tmp_path / "out" / outputs.LOCK).read_text() == str(os.getpid())
+  assert (tmp_path / "out" / files.LOCK).read_text() == str(os.getpid())
   lock.release()
-  assert not (tmp_path / "out" / outputs.LOCK).exists()
+  assert not (tmp_path / "out" / files.LOCK).exists()
 
 
 # 5. one error path ---------------------------------------------------------------------------
@@ -288,7 +288,7 @@ def test_an_internal_error_says_so_and_saves_its_traceback(capsys, tmp_path, mon
   assert "internal error" in err and "math domain error" in err
   saved = tmp_path / "out" / "traceback.txt"
   assert str(saved) in err and "math.log(-1.0)" in saved.read_text()
-  assert not (tmp_path / "out" / outputs.LOCK).exists()
+  assert not (tmp_path / "out" / files.LOCK).exists()
 
 
 def test_an_internal_error_before_the_run_saves_its_traceback_in_the_cache(capsys, tmp_path,

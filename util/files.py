@@ -9,6 +9,8 @@ project's on-disk cache (recordings, kernels, saved tracebacks).
 
 from __future__ import annotations
 
+import dataclasses
+import fcntl
 import hashlib
 import json
 import os
@@ -61,6 +63,60 @@ def output_folder(path, what: str) -> pathlib.Path:
                               f"folder you can write to") from None
   return folder
 
+
+
+LOCK = ".run.lock"  # the lock file `claim` holds in a folder it fills
+
+
+@dataclasses.dataclass
+class Lock:
+  """A process's hold on a results folder: an open lock file under an exclusive `flock`,
+  which the system drops when the process ends, however it ends."""
+  path: pathlib.Path
+  fd: int
+
+  def release(self) -> None:
+    # unlink while still holding it: whoever opened this file meanwhile finds it replaced
+    try:
+      self.path.unlink()
+    except OSError:
+      pass
+    os.close(self.fd)
+
+
+def claim(out, what: str = "--out") -> Lock:
+  """Checks that the folder `out` can take a command's results (as `output_folder`) and
+  locks it for this process, so that two runs never fill one folder: a second is refused in
+  one line naming the holder. The hold is the system's (`flock`), dropped however the
+  process ends; `Lock.release` also removes the lock file.
+
+  Raises:
+    errors.SettingError naming `what` (the option) and what to change.
+  """
+  out = output_folder(out, what)
+  path = out / LOCK
+  for _ in range(100):  # again only if the holder released the file between open and lock
+    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o644)
+    try:
+      fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+      holder = os.read(fd, 32).decode(errors="replace").strip()
+      os.close(fd)
+      raise errors.SettingError(
+          f"{what} {out} is in use by another run"
+          + (f" (process {holder})" if holder.isdigit() else "")
+          + ": give this run another --out, or wait for that one to finish") from None
+    try:
+      current = os.stat(path).st_ino == os.fstat(fd).st_ino
+    except FileNotFoundError:
+      current = False
+    if current:
+      os.ftruncate(fd, 0)
+      os.write(fd, str(os.getpid()).encode())
+      return Lock(path, fd)
+    os.close(fd)
+  raise errors.SettingError(f"{what} {out}: could not take its lock file {path}; remove it if "
+                            f"no run is using the folder")
 
 def output_file(path, what: str, suffixes: tuple[str, ...]) -> pathlib.Path:
   """Checks, before any work, a file a command will write: a name ending in one of

@@ -71,8 +71,15 @@ def coverage_line(result: dict, names, far: np.ndarray, level: float) -> str:
 
 
 def run(args) -> int:
+  lock = files.claim(args.out, "--out")  # two evaluations never fill one folder
+  try:
+    return _evaluate(args, lock.path.parent)
+  finally:
+    lock.release()
+
+
+def _evaluate(args, out) -> int:
   from calibrate import estimators, figures, metrics as metrics_lib
-  out = files.output_folder(args.out, "--out")
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
   est = estimators.Estimator.load(args.estimator)

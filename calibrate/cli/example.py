@@ -32,7 +32,14 @@ EXAMPLES = pathlib.Path(__file__).parents[1] / "examples"
 
 
 def run(args) -> int:
-  files.output_folder(args.out, "the example folder")
+  lock = files.claim(args.out, "the example folder")
+  try:
+    return _example(args)
+  finally:
+    lock.release()
+
+
+def _example(args) -> int:
   written = []
   if args.streams:
     written = streams_pairs(args.out)

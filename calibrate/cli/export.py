@@ -17,9 +17,16 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-  from calibrate import cexport, estimators
   from util import files
-  files.output_folder(args.c_dir, "--c")
+  lock = files.claim(args.c_dir, "--c")  # two exports never fill one folder
+  try:
+    return _export(args)
+  finally:
+    lock.release()
+
+
+def _export(args) -> int:
+  from calibrate import cexport, estimators
   est = estimators.Estimator.load(args.estimator)
   if args.fixed_point and est.rnn is None:
     raise errors.SettingError(f"--fixed-point writes a recurrent network in integers: "

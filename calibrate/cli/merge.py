@@ -55,7 +55,14 @@ def run(args) -> int:
                               f"{len(args.pairs)} files")
   if not 0 < args.max_lag <= 60:
     raise errors.SettingError(f"--max-lag {args.max_lag:g} is out of range: allowed (0, 60] s")
-  out = files.output_folder(args.out, "--out")
+  lock = files.claim(args.out, "--out")  # two merges never fill one folder
+  try:
+    return _merge(args, lock.path.parent)
+  finally:
+    lock.release()
+
+
+def _merge(args, out) -> int:
   pairs = list(zip(args.pairs[::2], args.pairs[1::2]))
   stems = [pathlib.Path(a).stem for a, _ in pairs]
   if len(set(stems)) != len(stems):
