@@ -68,6 +68,15 @@ def output_folder(path, what: str) -> pathlib.Path:
 LOCK = ".run.lock"  # the lock file `claim` holds in a folder it fills
 
 
+def holding(folder, what: str, work: Callable):
+  """work(folder) while this process holds `folder` (`claim`); returns what it returns."""
+  lock = claim(folder, what)
+  try:
+    return work(lock.path.parent)
+  finally:
+    lock.release()
+
+
 @dataclasses.dataclass
 class Lock:
   """A process's hold on a results folder: an open lock file under an exclusive `flock`,

@@ -71,11 +71,8 @@ def coverage_line(result: dict, names, far: np.ndarray, level: float) -> str:
 
 
 def run(args) -> int:
-  lock = files.claim(args.out, "--out")  # two evaluations never fill one folder
-  try:
-    return _evaluate(args, lock.path.parent)
-  finally:
-    lock.release()
+  # two evaluations never fill one folder
+  return files.holding(args.out, "--out", lambda out: _evaluate(args, out))
 
 
 def _evaluate(args, out) -> int:

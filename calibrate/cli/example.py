@@ -32,11 +32,7 @@ EXAMPLES = pathlib.Path(__file__).parents[1] / "examples"
 
 
 def run(args) -> int:
-  lock = files.claim(args.out, "the example folder")
-  try:
-    return _example(args)
-  finally:
-    lock.release()
+  return files.holding(args.out, "the example folder", lambda _: _example(args))
 
 
 def _example(args) -> int:

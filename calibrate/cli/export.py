@@ -18,11 +18,8 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
   from util import files
-  lock = files.claim(args.c_dir, "--c")  # two exports never fill one folder
-  try:
-    return _export(args)
-  finally:
-    lock.release()
+  # two exports never fill one folder
+  return files.holding(args.c_dir, "--c", lambda _: _export(args))
 
 
 def _export(args) -> int:

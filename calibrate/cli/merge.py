@@ -55,11 +55,8 @@ def run(args) -> int:
                               f"{len(args.pairs)} files")
   if not 0 < args.max_lag <= 60:
     raise errors.SettingError(f"--max-lag {args.max_lag:g} is out of range: allowed (0, 60] s")
-  lock = files.claim(args.out, "--out")  # two merges never fill one folder
-  try:
-    return _merge(args, lock.path.parent)
-  finally:
-    lock.release()
+  # two merges never fill one folder
+  return files.holding(args.out, "--out", lambda out: _merge(args, out))
 
 
 def _merge(args, out) -> int:
