@@ -218,3 +218,27 @@ def test_a_folder_another_run_holds_is_refused_and_left_alone(tmp_path, capsys, 
   finally:
     holder.kill()
     holder.wait()
+
+
+# --- a cache that is not a writable folder --------------------------------------------------
+
+@pytest.mark.parametrize("where, message", [
+    ("file", "is a file: point TESTBENCH_CACHE at a folder"),
+    ("under a file", "cannot be written (Not a directory)"),
+])
+def test_a_cache_that_is_not_a_writable_folder_is_named_before_any_work(
+    tmp_path, capsys, monkeypatch, where, message):
+  from benchmarks import run as bench
+  if where == "file":
+    cache = tmp_path / "cache.txt"
+    cache.write_text("not a folder")
+  else:  # a path no one can make (root writes into read-only folders)
+    (tmp_path / "cache.txt").write_text("not a folder")
+    cache = tmp_path / "cache.txt" / "cache"
+  monkeypatch.setenv("TESTBENCH_CACHE", str(cache))
+  assert bench.main(["collisions", "--quick", "--no-progress", "--out",
+                     str(tmp_path / "out")]) == 2
+  err = capsys.readouterr().err.strip()
+  assert "Traceback" not in err and len(err.splitlines()) == 1
+  assert err.startswith(f"error: TESTBENCH_CACHE {cache}") and message in err
+  assert not (tmp_path / "out").exists()

@@ -203,6 +203,28 @@ def cache_dir() -> pathlib.Path:
   return pathlib.Path(root) if root else pathlib.Path.home() / ".cache" / "footpad-testbench"
 
 
+def usable_cache_dir() -> pathlib.Path:
+  """`cache_dir`, checked before any work: a folder, made if missing, that this process can
+  write.
+
+  Raises:
+    errors.SettingError naming TESTBENCH_CACHE (or the default) and what to change.
+  """
+  root = cache_dir()
+  what = "TESTBENCH_CACHE" if os.environ.get("TESTBENCH_CACHE") else "the cache folder"
+  if root.exists() and not root.is_dir():
+    raise errors.SettingError(f"{what} {root} is a file: point TESTBENCH_CACHE at a folder (or "
+                              f"unset it for ~/.cache/footpad-testbench)")
+  try:
+    root.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryFile(dir=root):
+      pass
+  except OSError as err:
+    raise errors.SettingError(f"{what} {root} cannot be written ({err.strerror}): point "
+                              f"TESTBENCH_CACHE at a folder you can write to") from None
+  return root
+
+
 def writer_pid(tmp: pathlib.Path) -> int | None:
   """The process id in the name of a temporary file `atomic_write` made (None if not one)."""
   parts = pathlib.Path(tmp).name.removesuffix(TMP_SUFFIX).split(".")
