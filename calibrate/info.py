@@ -145,6 +145,8 @@ class Info:
       raise ValueError("its interval's offsets do not fit its outputs")
     if info.interval_growth is not None and info.interval_growth.shape != (a,):
       raise ValueError("its interval's growth does not fit its outputs")
+    if any(r is not None and r.shape != (a,) for r in (info.output_lo, info.output_hi)):
+      raise ValueError("its outputs' training ranges do not fit its outputs")
     return info
 
 

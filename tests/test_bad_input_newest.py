@@ -242,3 +242,64 @@ def test_a_cache_that_is_not_a_writable_folder_is_named_before_any_work(
   assert "Traceback" not in err and len(err.splitlines()) == 1
   assert err.startswith(f"error: TESTBENCH_CACHE {cache}") and message in err
   assert not (tmp_path / "out").exists()
+
+
+# --- the loader checks every array's shape against the others --------------------------------
+
+def _family(name):
+  from calibrate import estimators, splits
+  from calibrate.fitted import Kind
+  from calibrate.parts import deep, mlp
+  rng = np.random.default_rng(0)
+  x = rng.uniform(500, 3500, (400, 4))
+  y = np.column_stack([x @ [1e-3, 2e-3, 0, 1e-3], np.tanh((x[:, 0] - 2000) / 500),
+                       x[:, 1] * 1e-3])
+  net = mlp.LMConfig(hidden=4, epochs=3)
+  fit = {
+      "LS": lambda: estimators.fit(Kind.LS, x, y),
+      "POLY": lambda: estimators.fit(Kind.POLY, x, y, cross=True, ridge=1e-3),
+      "POLY-CH": lambda: estimators.fit(Kind.POLY, x, y),
+      "NN": lambda: estimators.fit(Kind.NN, x, y, config=net),
+      "LSANN": lambda: estimators.fit(Kind.LSANN, x, y, config=net),
+      "LSGP": lambda: estimators.fit(Kind.LSGP, x, y),
+      "MLP": lambda: estimators.fit(Kind.MLP, x, y, deep=deep.DeepConfig(epochs=3),
+                                    layers=(8,)),
+      "LS+MEM": lambda: estimators.fit_temporal(Kind.LS, x, y, 0.01, taus=(0.05,)),
+      "GRU": lambda: estimators.fit_temporal(Kind.GRU, x, y, 0.01, taus=(0.05,), folds=2,
+                                             segments=np.repeat(np.arange(4), 100)),
+      "AUTO": lambda: estimators.fit_auto(x, y, splits.groups(400, "blocks", block=40), 2,
+                                          candidates=("LS", "POLY-CH", "NN"), config=net)[0],
+  }[name]
+  return fit(), x
+
+
+@pytest.mark.parametrize("family", [
+    "LS", "POLY", "POLY-CH", "NN", "LSANN", "LSGP", "LS+MEM",
+    pytest.param("MLP", marks=pytest.mark.slow), pytest.param("GRU", marks=pytest.mark.slow),
+    pytest.param("AUTO", marks=pytest.mark.slow)])
+def test_an_array_of_the_wrong_shape_is_refused_by_the_loader(tmp_path, capsys, family):
+  """Every numeric array of the file a row short, or a scalar, re-signed: `predict` refuses
+  the file in one line naming it, and writes nothing (an array that may legitimately be
+  shorter, the offsets of one group fewer, excepted)."""
+  from util import files
+  est, x = _family(family)
+  est.save(tmp_path / "e.npz")
+  csvfile.write(tmp_path / "x.csv", [f"in{k}" for k in range(4)], x[:20])
+  with np.load(tmp_path / "e.npz") as z:
+    arrays = {k: z[k] for k in z.files}
+  meta = files.from_json(str(arrays.pop("meta")))
+  tried = 0
+  for key, a in arrays.items():
+    if a.dtype.kind not in "fi" or a.ndim == 0:
+      continue
+    for bad in ([a[:-1]] if len(a) > 1 and not key.endswith("interval_offsets") else []) \
+        + [np.float64(1.0)]:
+      changed = {**arrays, key: bad}
+      signed = {**meta, "sha256": files.array_digest(changed)}
+      np.savez(tmp_path / "bad.npz", meta=files.json_text(signed), **changed)
+      _, err = _run(capsys, ["predict", tmp_path / "bad.npz", "--csv", tmp_path / "x.csv",
+                             "--out", tmp_path / "p.csv"], 2)
+      assert "bad.npz" in err, (key, err)
+      assert not (tmp_path / "p.csv").exists()
+      tried += 1
+  assert tried >= 4
