@@ -94,8 +94,9 @@ class Info:
       errors.DataError when the estimator was fitted without cross-validation.
     """
     if self.interval_abs is None:
-      raise errors.DataError("the estimator holds no interval (fitted without grouped "
-                             "cross-validation): fit it again with this version's `fit`")
+      raise errors.DataError("the estimator holds no interval: it was fitted without grouped "
+                             "cross-validation (--folds 0, or before intervals existed); fit "
+                             "it again with --folds 2 or more")
     if not 0.5 <= level <= 0.999:
       raise errors.SettingError(f"interval level {level!r} is out of range: allowed 0.5 to "
                                 f"0.999")

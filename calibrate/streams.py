@@ -131,6 +131,10 @@ def merge(sensor, reference, lag: Optional[float] = None, max_gap: Optional[floa
     if t is None:
       raise errors.DataError(f"{table.path}: no time column {time_column!r} to merge on "
                              f"(name it with --time-column)")
+  for table, t in ((sensor, ts), (reference, tr)):
+    if len(t) < 2:
+      raise errors.DataError(f"{table.path}: {len(t)} data row(s): a stream needs two or more "
+                             f"to be merged (the reference is interpolated between its rows)")
   ref_cols = [i for i, n in enumerate(reference.names) if n != time_column]
   sen_cols = [i for i, n in enumerate(sensor.names) if n != time_column]
   shared = {reference.names[i] for i in ref_cols} & {sensor.names[i] for i in sen_cols}

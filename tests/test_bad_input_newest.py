@@ -303,3 +303,43 @@ def test_an_array_of_the_wrong_shape_is_refused_by_the_loader(tmp_path, capsys, 
       assert not (tmp_path / "p.csv").exists()
       tried += 1
   assert tried >= 4
+
+
+# --- errors name the real cause, with the limit that applies ---------------------------------
+
+@pytest.mark.parametrize("case, message", [
+    ("lag nan", "--lag nan is out of range: allowed seconds in [-60, 60]"),
+    ("lag inf", "--lag inf is out of range: allowed seconds in [-60, 60]"),
+    ("max-gap nan", "--max-gap nan is out of range"),
+    ("one-row reference", "one_ref.csv: 1 data row(s): a stream needs two or more"),
+    ("track-drift inf", "--track-drift inf is out of range: allowed a finite force > 0"),
+    ("nn on one row", "0 training samples (1 held out for validation)"),
+    ("interval without folds", "fit it again with --folds 2 or more"),
+])
+def test_a_mistake_is_blamed_on_what_was_wrong(tmp_path, capsys, case, message):
+  ex = _example(capsys, tmp_path)
+  _run(capsys, ["example", tmp_path / "st", "--streams"])
+  sensor, reference = tmp_path / "st" / "train1_sensor.csv", tmp_path / "st" / "train1_reference.csv"
+  for src, dst in ((reference, "one_ref.csv"), (ex / "train.csv", "one.csv")):
+    t = csvfile.read(src)
+    csvfile.write(tmp_path / dst, t.names, t.data[:1], t.units)
+  data = ["--inputs", "p*", "--targets", "Fx,Fy,Fz"]
+  if case == "interval without folds":
+    _run(capsys, ["fit", "--csv", ex / "train.csv", *data, "--method", "ls", "--folds", "0",
+                  "--out", tmp_path / "e0.npz"])
+  argv = {
+      "lag nan": ["merge", sensor, reference, "--lag", "nan", "--out", tmp_path / "m"],
+      "lag inf": ["merge", sensor, reference, "--lag", "inf", "--out", tmp_path / "m"],
+      "max-gap nan": ["merge", sensor, reference, "--max-gap", "nan", "--out", tmp_path / "m"],
+      "one-row reference": ["merge", sensor, tmp_path / "one_ref.csv", "--out", tmp_path / "m"],
+      "track-drift inf": ["fit", "--csv", ex / "train.csv", *data, "--method", "ls",
+                          "--track-drift", "inf", "--out", tmp_path / "e.npz"],
+      "nn on one row": ["fit", "--csv", tmp_path / "one.csv", *data, "--method", "nn",
+                        "--split", "samples", "--out", tmp_path / "e.npz"],
+      "interval without folds": ["predict", tmp_path / "e0.npz", "--csv", ex / "test.csv",
+                                 "--interval", "0.95", "--out", tmp_path / "p.csv"],
+  }[case]
+  _, err = _run(capsys, argv, 2)
+  assert message in err
+  assert not (tmp_path / "m").exists() or not any((tmp_path / "m").glob("*.csv"))
+  assert not (tmp_path / "e.npz").exists() and not (tmp_path / "p.csv").exists()

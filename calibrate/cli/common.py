@@ -365,6 +365,9 @@ def drift_tare(args, outputs):
     raise errors.SettingError(f"--track-drift reads the normal force, and of {len(outputs)} "
                               f"targets none is the third: name it with --drift-axis (one "
                               f"of {', '.join(outputs)})")
+  if not 0 < args.track_drift < float("inf"):
+    raise errors.SettingError(f"--track-drift {args.track_drift:g} is out of range: allowed a "
+                              f"finite force > 0 (the targets' unit)")
   tare = memory.Tare(args.track_drift, axis=axis)
   tare.validate()
   return tare

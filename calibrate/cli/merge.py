@@ -55,6 +55,12 @@ def run(args) -> int:
                               f"{len(args.pairs)} files")
   if not 0 < args.max_lag <= 60:
     raise errors.SettingError(f"--max-lag {args.max_lag:g} is out of range: allowed (0, 60] s")
+  if args.lag is not None and not abs(args.lag) <= 60:  # nan and inf fail it too
+    raise errors.SettingError(f"--lag {args.lag:g} is out of range: allowed seconds in "
+                              f"[-60, 60], or auto")
+  if args.max_gap is not None and not 0 < args.max_gap < 1e6:
+    raise errors.SettingError(f"--max-gap {args.max_gap:g} is out of range: allowed seconds in "
+                              f"(0, 1e6)")
   # two merges never fill one folder
   return files.holding(args.out, "--out", lambda out: _merge(args, out))
 

@@ -58,8 +58,8 @@ class Tare:
 
   def validate(self) -> None:
     if not (np.isfinite(self.threshold) and self.threshold > 0):
-      raise errors.SettingError(f"tare threshold={self.threshold!r} is out of range: a "
-                                f"force > 0")
+      raise errors.SettingError(f"tare threshold={self.threshold!r} is out of range: allowed "
+                                f"a finite force > 0")
     if not (isinstance(self.hold, (int, np.integer)) and 1 <= self.hold <= 100_000):
       raise errors.SettingError(f"tare hold={self.hold!r} is out of range: integers "
                                 f"1..100000 samples")

@@ -500,7 +500,9 @@ def _checked(x, y, x_val, y_val, config: LMConfig):
   n_par = h * (d + 1) + o * (h + 1)
   if y.size <= n_par:
     raise errors.DataError(
-        f"{len(x)} samples x {o} outputs cannot fit {n_par} network parameters")
+        f"{len(x)} training samples ({len(x_val)} held out for validation) x {o} outputs "
+        f"cannot fit {n_par} network parameters: a network of {h} hidden units needs more "
+        f"than {n_par // o} training samples (or --hidden smaller)")
   if len(x_val) == 0:
     raise errors.DataError("the validation set is empty: hold out some samples")
   return x, y, x_val, y_val
