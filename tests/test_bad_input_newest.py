@@ -343,3 +343,18 @@ def test_a_mistake_is_blamed_on_what_was_wrong(tmp_path, capsys, case, message):
   assert message in err
   assert not (tmp_path / "m").exists() or not any((tmp_path / "m").glob("*.csv"))
   assert not (tmp_path / "e.npz").exists() and not (tmp_path / "p.csv").exists()
+
+
+# --- files are written with the process's umask ----------------------------------------------
+
+def test_written_files_take_the_umask_not_0600(tmp_path):
+  import os
+  import subprocess
+  import sys
+  script = ("import os; os.umask(0o022); from util import files; "
+            f"files.write_text({str(tmp_path / 'a.txt')!r}, 'x'); os.umask(0o077); "
+            "files._UMASK = None; "
+            f"files.write_text({str(tmp_path / 'b.txt')!r}, 'y')")
+  subprocess.run([sys.executable, "-c", script], check=True, cwd=os.getcwd())
+  assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
+  assert (tmp_path / "b.txt").stat().st_mode & 0o777 == 0o600

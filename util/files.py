@@ -39,7 +39,22 @@ def atomic_write(path: pathlib.Path, write: Callable) -> None:
       f.close()
       os.unlink(f.name)
       raise
+  # a temporary file is made 0600; what a user writes gets the mode their umask asks for,
+  # as open() would give it (results shared with a group stay readable to it)
+  os.chmod(f.name, 0o666 & ~_umask())
   os.replace(f.name, path)
+
+
+def _umask() -> int:
+  """The process's umask (read once: setting it to read it is not thread-safe)."""
+  global _UMASK
+  if _UMASK is None:
+    _UMASK = os.umask(0o022)
+    os.umask(_UMASK)
+  return _UMASK
+
+
+_UMASK = None
 
 
 def output_folder(path, what: str) -> pathlib.Path:
