@@ -358,3 +358,4 @@ def test_written_files_take_the_umask_not_0600(tmp_path):
   subprocess.run([sys.executable, "-c", script], check=True, cwd=os.getcwd())
   assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
   assert (tmp_path / "b.txt").stat().st_mode & 0o777 == 0o600
+

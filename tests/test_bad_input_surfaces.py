@@ -275,7 +275,11 @@ def test_render_refuses_an_unknown_gl_backend_in_one_line(tmp_path):
       "egl, osmesa, glfw, glx (or unset it to let the command choose)"]
 
 
-def test_ctrl_c_in_calibrate_fit_is_one_line_and_exit_130(csvs, tmp_path):
+@pytest.mark.parametrize("sig, code, line", [
+    ("SIGINT", 130, "interrupted: nothing was written"),  # Ctrl-C
+    ("SIGTERM", 143, "terminated (SIGTERM): nothing was written")])  # kill, a scheduler
+def test_ctrl_c_or_sigterm_in_calibrate_fit_is_one_line_and_its_exit_code(csvs, tmp_path, sig,
+                                                                          code, line):
   import os
   import signal
   import subprocess
@@ -288,11 +292,10 @@ def test_ctrl_c_in_calibrate_fit_is_one_line_and_exit_130(csvs, tmp_path):
                           stderr=subprocess.PIPE, text=True, env=dict(os.environ, COLUMNS="80"))
   seen = proc.stderr.readline()  # the first network's progress line: training has begun
   assert seen.startswith("training"), seen
-  proc.send_signal(signal.SIGINT)
+  proc.send_signal(getattr(signal, sig))
   err = seen + proc.stderr.read()
-  assert proc.wait(timeout=60) == 130
-  assert "Traceback" not in err and err.strip().splitlines()[-1] == \
-      "interrupted: nothing was written"
+  assert proc.wait(timeout=60) == code
+  assert "Traceback" not in err and err.strip().splitlines()[-1] == line
   assert not (tmp_path / "nn.npz").exists()
 
 

@@ -23,6 +23,7 @@ from typing import Callable
 from util import errors, files, interrupt
 
 INTERRUPTED = 130
+TERMINATED = 143  # 128 + SIGTERM, as a shell reports a process it ended
 
 
 def path_arg(text: str) -> pathlib.Path:
@@ -51,6 +52,9 @@ def run(body: Callable[[], int], command: str,
   except errors.UserError as err:
     print(f"error: {err}", file=sys.stderr)
     return 2
+  except interrupt.Terminated:
+    print(interrupted.replace("interrupted", "terminated (SIGTERM)", 1), file=sys.stderr)
+    return TERMINATED
   except KeyboardInterrupt:
     print(interrupted, file=sys.stderr)
     return INTERRUPTED

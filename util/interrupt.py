@@ -1,4 +1,4 @@
-"""Ctrl-C that always stops a command.
+"""Ctrl-C (and SIGTERM) that always stops a command.
 
 Python delivers SIGINT as a KeyboardInterrupt in whatever the main thread runs next. When that
 is a finaliser (JAX frees device buffers in `__del__` and weakref callbacks, often), Python
@@ -16,17 +16,28 @@ import sys
 import threading
 
 _requested = threading.Event()
+_by = [signal.SIGINT]  # the signal that asked
+
+
+class Terminated(KeyboardInterrupt):
+  """SIGTERM (a `kill`, a scheduler's stop): handled as Ctrl-C is, exit code 143."""
+
+
+def _stop() -> KeyboardInterrupt:
+  return Terminated() if _by[0] == signal.SIGTERM else KeyboardInterrupt()
 
 
 def check() -> None:
-  """Raises KeyboardInterrupt when Ctrl-C was pressed in a command run under `handled()`."""
+  """Raises KeyboardInterrupt (`Terminated` for SIGTERM) when Ctrl-C was pressed, or SIGTERM
+  came, in a command run under `handled()`."""
   if _requested.is_set():
-    raise KeyboardInterrupt
+    raise _stop()
 
 
-def _on_sigint(signum, frame):
+def _on_signal(signum, frame):
+  _by[0] = signum
   _requested.set()
-  raise KeyboardInterrupt
+  raise _stop()
 
 
 def _unraisable(before):
@@ -45,12 +56,14 @@ def handled():
     yield
     return
   _requested.clear()
-  before_handler = signal.signal(signal.SIGINT, _on_sigint)
+  before = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
   before_hook = sys.unraisablehook
   sys.unraisablehook = _unraisable(before_hook)
   try:
     yield
   finally:
-    signal.signal(signal.SIGINT, before_handler)
+    for s, handler in before.items():
+      signal.signal(s, handler)
     sys.unraisablehook = before_hook
     _requested.clear()
+    _by[0] = signal.SIGINT
