@@ -194,26 +194,40 @@ def _processes(fn, items, workers: int, one_at_a_time: bool):
 
 
 def _pool(fn, items, ctx, workers: int, one_at_a_time: bool):
-  with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx,
-                                              initializer=util_workers.die_with_parent,
-                                              initargs=(os.getpid(),)) as pool:
-    if one_at_a_time:
-      for i, point in items:
-        try:
-          result, err = pool.submit(_call, fn, point).result()
-        except concurrent.futures.process.BrokenProcessPool:
-          yield i, None, _Died("the worker process died")
-          return  # the pool is gone: the caller runs what is left in a new one
-        yield i, result, (RuntimeError(err) if err else None)
-      return
-    futures = {pool.submit(_call, fn, point): i for i, point in items}
-    for fut in concurrent.futures.as_completed(futures):
+  pool = concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx,
+                                                initializer=util_workers.die_with_parent,
+                                                initargs=(os.getpid(),))
+  finished = False
+  try:
+    yield from _on_pool(pool, fn, items, one_at_a_time)
+    finished = True
+  finally:
+    if finished:
+      pool.shutdown(wait=True)
+    else:  # Ctrl-C, SIGTERM or an error: stop now, not after every queued point has run
+      pool.shutdown(wait=False, cancel_futures=True)
+      for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        proc.terminate()  # the running points (no public way to end a worker)
+
+
+def _on_pool(pool, fn, items, one_at_a_time: bool):
+  if one_at_a_time:
+    for i, point in items:
       try:
-        result, err = fut.result()
+        result, err = pool.submit(_call, fn, point).result()
       except concurrent.futures.process.BrokenProcessPool:
-        yield futures[fut], None, _Died("the worker process died")
-        continue
-      yield futures[fut], result, (RuntimeError(err) if err else None)
+        yield i, None, _Died("the worker process died")
+        return  # the pool is gone: the caller runs what is left in a new one
+      yield i, result, (RuntimeError(err) if err else None)
+    return
+  futures = {pool.submit(_call, fn, point): i for i, point in items}
+  for fut in concurrent.futures.as_completed(futures):
+    try:
+      result, err = fut.result()
+    except concurrent.futures.process.BrokenProcessPool:
+      yield futures[fut], None, _Died("the worker process died")
+      continue
+    yield futures[fut], result, (RuntimeError(err) if err else None)
 
 
 class _Dask:
@@ -301,17 +315,20 @@ def sweep(fn: Callable[[Point], Any], points: list[Point], spec: ExecutorSpec = 
       else:
         raise ExecutorError(f"executor {spec.kind!r} is unknown: allowed serial, processes, "
                             f"dask")
-      for i, result, err in outcomes:
-        if err is None:
-          results[i] = result
-          if store:
-            store.save(points[i], result)
-          done += 1
-          if progress:
-            progress(done, len(points))
-        else:
-          attempts[i] += 1
-          last_error[i] = str(err)
+      try:
+        for i, result, err in outcomes:
+          if err is None:
+            results[i] = result
+            if store:
+              store.save(points[i], result)
+            done += 1
+            if progress:
+              progress(done, len(points))
+          else:
+            attempts[i] += 1
+            last_error[i] = str(err)
+      finally:  # an interrupted consumer (Ctrl-C in a progress step) stops the pool at once
+        outcomes.close()
       # a failed point is retried once; what a broken pool never ran runs again
       todo = sorted(i for i in attempts if results[i] is None and attempts[i] < 2)
       retry = any(attempts[i] for i in todo)

@@ -359,3 +359,29 @@ def test_written_files_take_the_umask_not_0600(tmp_path):
   assert (tmp_path / "a.txt").stat().st_mode & 0o777 == 0o644
   assert (tmp_path / "b.txt").stat().st_mode & 0o777 == 0o600
 
+
+
+# --- a sweep stops within seconds -------------------------------------------------------------
+
+def _slow_point(point):
+  import time
+  time.sleep(point["seconds"])
+  return point["seconds"]
+
+
+@pytest.mark.slow  # spawns two worker processes
+def test_an_interrupted_sweep_stops_without_running_its_queued_points():
+  """Ctrl-C at the first finished point of a sweep of 10 points of 4 s on 2 workers: the
+  sweep stops at once (its queued points cancelled, the running ones ended), not after the
+  ~16 s the queue would take."""
+  import time
+  from benchmarks import executors
+  points = [{"seconds": 0.5 if k == 0 else 4.0, "seed": k} for k in range(10)]
+
+  def progress(done, total):
+    if done:
+      raise KeyboardInterrupt
+  t0 = time.perf_counter()
+  with pytest.raises(KeyboardInterrupt):
+    executors.sweep(_slow_point, points, executors.ExecutorSpec(workers=2), progress=progress)
+  assert time.perf_counter() - t0 < 5.0  # spawning and the first point; the queue: ~18 s
