@@ -198,6 +198,17 @@ def _main(argv: Optional[list[str]]) -> int:
     lock.release()
 
 
+def arm_integration(tags) -> Optional[dict]:
+  """How the footpad's Maxwell arms are integrated in this run ({"integration": "native" or
+  "dcmotor", "why": the fallback's reason}), for a benchmark tagged "footpad"; None
+  otherwise."""
+  if "footpad" not in tags:
+    return None
+  from models import footpad
+  kind, why = footpad.arm_dynamics()
+  return {"integration": kind, "why": why}
+
+
 def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib.Path,
          earlier: Optional[list[outputs.Row]], argv: list[str], preset=None) -> int:
   from sim import cache
@@ -211,6 +222,10 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
       ctx.print(line)
   for folder in (cache.cache_dir(), out):  # what killed runs left half-written
     cache.clean_orphans(folder)
+  arms = arm_integration(bench.tags)
+  if arms and arms["integration"] != "native":
+    ctx.print(f"warning: the footpad's Maxwell arms run as MuJoCo's DC motors, not the compiled "
+              f"callback ({arms['why']}): slower, and its recordings are other bytes")
   started = time.strftime("%Y-%m-%dT%H:%M:%S%z")
   t0 = time.perf_counter()
   try:
@@ -235,6 +250,8 @@ def _run(bench: registry.Benchmark, args, applied, overrides: dict, out: pathlib
       "rerun": "the command above at git_commit; with the same versions it gives the same "
                "bytes (every draw follows the seed)"}
   manifest["recordings"] = ctx.recordings
+  if arms:
+    manifest["maxwell_arms"] = arms
   outputs.write_run(out, result, head, ctx.lines, f"# {args.name}\n\n{bench.description}\n\n"
                     f"`{command}` (seed {args.seed})\n\n", manifest)
   if earlier is not None:

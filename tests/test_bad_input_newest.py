@@ -385,3 +385,66 @@ def test_an_interrupted_sweep_stops_without_running_its_queued_points():
   with pytest.raises(KeyboardInterrupt):
     executors.sweep(_slow_point, points, executors.ExecutorSpec(workers=2), progress=progress)
   assert time.perf_counter() - t0 < 5.0  # spawning and the first point; the queue: ~18 s
+
+
+# --- the native arms: a fallback is said, a damaged library is built again -------------------
+
+def test_a_damaged_cached_library_is_built_again(tmp_path):
+  import os
+  import subprocess
+  import sys
+  from util import native
+  if native.compiler() is None:
+    pytest.skip("no C compiler on this machine")
+  source = tmp_path / "seven.c"
+  source.write_text("int seven(void) { return 7; }\n")
+  load = ("import sys, pathlib; from util import native; "
+          f"lib, why = native.shared_library(pathlib.Path({str(source)!r})); "
+          "print(lib.seven() if lib else why)")
+  env = dict(os.environ, TESTBENCH_CACHE=str(tmp_path / "cache"))
+
+  def run():  # each load its own process, as each run is (a loaded library stays mapped)
+    return subprocess.run([sys.executable, "-c", load], env=env, capture_output=True,
+                          text=True, cwd=os.getcwd()).stdout.strip()
+  assert run() == "7"
+  (built,) = (tmp_path / "cache" / "native").glob("seven-*.so")
+  built.write_bytes(built.read_bytes()[:100])  # a cut copy
+  assert run() == "7"  # built again, not a fallback for every later run
+  assert built.stat().st_size > 100
+
+
+@pytest.mark.parametrize("cc, said", [("/bin/false", "could not compile"),
+                                      ("", "no C compiler found")])
+def test_an_unusable_compiler_is_a_fallback_with_its_reason(tmp_path, monkeypatch, cc, said):
+  from util import native
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path / "cache"))
+  monkeypatch.setenv("CC", cc)
+  source = tmp_path / "seven.c"
+  source.write_text("int seven(void) { return 7; }\n")
+  lib, why = native.shared_library(source)
+  assert lib is None and said in why
+
+
+def test_a_footpad_run_says_how_its_arms_are_integrated(monkeypatch):
+  from benchmarks import run as bench
+  from models import footpad
+  monkeypatch.setattr(footpad, "_arm_state", ("dcmotor", "/bin/false could not compile it"))
+  assert bench.arm_integration(("footpad", "data")) == {
+      "integration": "dcmotor", "why": "/bin/false could not compile it"}
+  assert bench.arm_integration(("shell",)) is None
+
+
+def test_a_footpad_run_records_its_arms_in_the_manifest(tmp_path, capsys, quick_footpad):
+  """Through the command: the manifest says how the arms were integrated, and a fallback is
+  one warning line in the report (which of the two this machine gives)."""
+  import json
+  from benchmarks import run as bench
+  from models import footpad
+  assert bench.main(["footpad_dataset", "--quick", "--no-progress", "--out",
+                     str(tmp_path / "out")]) == 0
+  out = capsys.readouterr().out
+  kind, why = footpad.arm_dynamics()
+  manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+  assert manifest["maxwell_arms"] == {"integration": kind, "why": why}
+  warned = [s for s in out.splitlines() if s.startswith("warning: the footpad's Maxwell arms")]
+  assert len(warned) == (kind != "native")

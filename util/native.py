@@ -2,7 +2,9 @@
 MuJoCo callbacks, where a Python function would cost a GIL round trip per call.
 
 Compiling needs a C compiler ($CC, else `cc` or `gcc`); where none works, `shared_library`
-returns None with the reason and the caller falls back to a pure-MuJoCo formulation."""
+returns None with the reason and the caller falls back to a pure-MuJoCo formulation (the
+commands say so in a warning and in the run's manifest). A cached library that no longer
+loads is built again."""
 
 from __future__ import annotations
 
@@ -52,7 +54,8 @@ def shared_library(source: pathlib.Path, include_dirs: tuple[str, ...] = (),
     return result
 
 
-def _build_and_load(source, out, cc, include_dirs) -> tuple[ctypes.CDLL | None, str]:
+def _build_and_load(source, out, cc, include_dirs, rebuilt=False
+                    ) -> tuple[ctypes.CDLL | None, str]:
   if not out.exists():
     try:
       out.parent.mkdir(parents=True, exist_ok=True)
@@ -76,4 +79,10 @@ def _build_and_load(source, out, cc, include_dirs) -> tuple[ctypes.CDLL | None, 
   try:
     return ctypes.CDLL(str(out)), ""
   except OSError as err:
+    if not rebuilt:  # a damaged cached library (a cut copy, a flipped byte): built again
+      try:
+        out.unlink()
+      except OSError:
+        return None, f"cannot load {out} ({err}) nor remove it"
+      return _build_and_load(source, out, cc, include_dirs, rebuilt=True)
     return None, f"cannot load {out}: {err}"
