@@ -448,3 +448,32 @@ def test_a_footpad_run_records_its_arms_in_the_manifest(tmp_path, capsys, quick_
   assert manifest["maxwell_arms"] == {"integration": kind, "why": why}
   warned = [s for s in out.splitlines() if s.startswith("warning: the footpad's Maxwell arms")]
   assert len(warned) == (kind != "native")
+
+
+# --- a path's samples are bounded before simulation -------------------------------------------
+
+def test_a_path_of_too_many_tiny_moves_is_refused_before_any_work(tmp_path, capsys):
+  from benchmarks import run as bench
+  from sim.footpad import trajectories
+  lines = ["G21", "G1 Z-0.5 F60"] + [f"G1 X{(k + 1) * 0.001:.3f} F6"
+                                     for k in range(trajectories.MAX_WAYPOINTS)]
+  (tmp_path / "p.gcode").write_text("\n".join(lines) + "\n")
+  assert bench.main(["asterisk_path", "--quick", "--no-progress", "--set",
+                     f"custom_path={tmp_path / 'p.gcode'}", "--out", str(tmp_path / "out")]) == 2
+  err = capsys.readouterr().err.strip()
+  assert len(err.splitlines()) == 1 and "allowed at most 100,000" in err
+  assert not (tmp_path / "out" / "metrics.csv").exists()
+
+
+def test_a_path_is_refused_when_its_steps_would_outlast_the_limit():
+  """One step per move at least: 50,000 moves of 1 um at a 0.1 s time step simulate 5000 s
+  though the path travels 0.5 s."""
+  from sim.footpad import trajectories
+  from util import errors
+  n = 50_000
+  points = np.column_stack([np.arange(n) * 1e-6, np.zeros(n), np.full(n, -5e-4)])
+  path = trajectories.Waypoints(points, np.full(n, 1e-4), "custom:tiny")
+  with pytest.raises(errors.DataError, match=r"49,999 time steps of 0.1 s .*allowed at most "
+                                             r"3600 s"):
+    trajectories.waypoint_episode(path, 0.1)
+  assert len(trajectories.waypoint_episode(path, 1e-3).target) >= n  # 50 s: allowed

@@ -164,6 +164,7 @@ class Waypoints:
 
 MIN_FEED = 0.1  # mm/s: slower asks for hours of 1 kHz samples per millimetre
 MAX_SECONDS = 3600.0  # s: the longest path a run simulates (3.6 M samples at 1 kHz)
+MAX_WAYPOINTS = 100_000  # a path's waypoints (each move takes one time step at least)
 
 
 def read_path(path: str) -> Waypoints:
@@ -186,6 +187,10 @@ def read_path(path: str) -> Waypoints:
     rows = [r + [0.0] for r in _csv_rows(file, lines)]
   if len(rows) < 2:
     raise errors.DataError(f"path file {file}: needs at least two waypoints, found {len(rows)}")
+  if len(rows) > MAX_WAYPOINTS:
+    raise errors.DataError(f"path file {file}: {len(rows)} waypoints; allowed at most "
+                           f"{MAX_WAYPOINTS:,} (each move takes one time step at least: join "
+                           f"short moves into longer ones)")
   a = np.array(rows, dtype=float)
   points, feeds, holds = a[:, :3] * 1e-3, a[:, 3] * 1e-3, a[:, 4]
   slow = np.flatnonzero(a[1:, 3] < MIN_FEED)
@@ -369,6 +374,15 @@ def waypoint_episode(waypoints: Waypoints, dt: float) -> Episode:
   move from one depth to another are phase 0. The episode's z_level is its deepest press."""
   holds = np.zeros(len(waypoints.points)) if waypoints.holds is None else waypoints.holds
   p = waypoints.points
+  # each move takes one step at least: a path of many tiny moves simulates far longer than
+  # it travels, so its samples are counted before any is made
+  steps = np.maximum(np.ceil(np.linalg.norm(np.diff(p, axis=0), axis=1)
+                             / (waypoints.feeds[1:] * dt)), 1).sum() + np.round(holds / dt).sum()
+  if steps * dt > MAX_SECONDS:
+    raise errors.DataError(f"path {waypoints.name}: {int(steps):,} time steps of {dt:g} s "
+                           f"({steps * dt:.4g} s simulated, one step per move at least); "
+                           f"allowed at most {MAX_SECONDS:g} s: join short moves into longer "
+                           f"ones")
   parts, flags = [p[:1]], [np.zeros(1, np.int8)]
   for k in range(len(p)):
     if k:
