@@ -328,12 +328,14 @@ def test_a_mistake_is_blamed_on_what_was_wrong(tmp_path, capsys, case, message):
     _run(capsys, ["fit", "--csv", ex / "train.csv", *data, "--method", "ls", "--folds", "0",
                   "--out", tmp_path / "e0.npz"])
   argv = {
-      "lag nan": ["merge", sensor, reference, "--lag", "nan", "--out", tmp_path / "m"],
-      "lag inf": ["merge", sensor, reference, "--lag", "inf", "--out", tmp_path / "m"],
-      "max-gap nan": ["merge", sensor, reference, "--max-gap", "nan", "--out", tmp_path / "m"],
+      # refused by value, before the (missing) files are read
+      "lag nan": ["merge", sensor, tmp_path / "no.csv", "--lag", "nan", "--out", tmp_path / "m"],
+      "lag inf": ["merge", sensor, tmp_path / "no.csv", "--lag", "inf", "--out", tmp_path / "m"],
+      "max-gap nan": ["merge", sensor, tmp_path / "no.csv", "--max-gap", "nan", "--out",
+                      tmp_path / "m"],
       "one-row reference": ["merge", sensor, tmp_path / "one_ref.csv", "--out", tmp_path / "m"],
-      "track-drift inf": ["fit", "--csv", ex / "train.csv", *data, "--method", "ls",
-                          "--track-drift", "inf", "--out", tmp_path / "e.npz"],
+      "track-drift inf": ["fit", "--csv", tmp_path / "missing.csv", *data, "--method", "ls",
+                          "--track-drift", "inf", "--out", tmp_path / "e.npz"],  # unread
       "nn on one row": ["fit", "--csv", tmp_path / "one.csv", *data, "--method", "nn",
                         "--split", "samples", "--out", tmp_path / "e.npz"],
       "interval without folds": ["predict", tmp_path / "e0.npz", "--csv", ex / "test.csv",

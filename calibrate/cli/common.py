@@ -260,6 +260,10 @@ def training_data(args):
     raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
+  drift = getattr(args, "track_drift", None)
+  if drift is not None and not 0 < drift < float("inf"):  # by value, before any file is read
+    raise errors.SettingError(f"--track-drift {drift:g} is out of range: allowed a finite "
+                              f"force > 0 (the targets' unit)")
   steps = preparation(args)
   tables, table, recording = csvfile.read_many(args.csv, args.time_column,
                                                drop_nan=args.drop_nan, dedupe=args.dedupe)
@@ -365,9 +369,6 @@ def drift_tare(args, outputs):
     raise errors.SettingError(f"--track-drift reads the normal force, and of {len(outputs)} "
                               f"targets none is the third: name it with --drift-axis (one "
                               f"of {', '.join(outputs)})")
-  if not 0 < args.track_drift < float("inf"):
-    raise errors.SettingError(f"--track-drift {args.track_drift:g} is out of range: allowed a "
-                              f"finite force > 0 (the targets' unit)")
   tare = memory.Tare(args.track_drift, axis=axis)
   tare.validate()
   return tare
