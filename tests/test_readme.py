@@ -56,6 +56,9 @@ def test_every_block_runs_in_order(tmp_path, monkeypatch, capsys):
         module, args = argv[2], argv[3:]
         if module == "calibrate":
           assert calibrate_cli.main(args) == 0, argv
+          said = capsys.readouterr().out
+          # the README's tares take windows at rest: no command of it warns of a false tare
+          assert "not at rest" not in said, (argv, said)
           ran["calibrate"] += 1
         elif module == "benchmarks.run" and any(a.startswith("targets=") for a in args):
           # the identification of a user's own table: run for real (a small table, seconds)
