@@ -160,22 +160,15 @@ def compile_model(scene: FootpadScene) -> mujoco.MjModel:
                               contact_sensors=fx.STICK_SLIP in on).compile()
 
 
-STREAM_RESOLUTION = 1e-9  # m: the grid `stream_of` reads the CNC commands on (a CNC's ~1e-6)
-
-
 def stream_of(eps, session: int = 0) -> int:
   """A recording's identity for its random streams: a CRC of the CNC commands of its
   episodes (paths, depths, feeds, custom paths alike) and the session, so two recordings of
   one run, or one path in two sessions, draw their noise and drift apart, while the same
-  commands with other physics settings (an ablation, a sweep) draw the same. The commands
-  are read in whole steps of `STREAM_RESOLUTION`: z_press's depth comes from the pad's
-  finite-element kernel (a sparse solve, cached per machine), and a key of its float bytes
-  would draw all-new noise wherever a solver build moves its last bit."""
+  commands with other physics settings (an ablation, a sweep) draw the same."""
   import zlib
   crc = 0
   for ep in eps:
-    steps = np.round(np.asarray(ep.target, dtype=np.float64) / STREAM_RESOLUTION)
-    crc = zlib.crc32(np.ascontiguousarray(steps, dtype=np.int64).tobytes(), crc)
+    crc = zlib.crc32(np.ascontiguousarray(ep.target, dtype=np.float64).tobytes(), crc)
   return crc if session == 0 else zlib.crc32(f"session {session}".encode(), crc)
 
 
@@ -565,10 +558,9 @@ def versions() -> dict[str, str]:
   # the path at its depth (not its press down); 7 = the square path once (not three times);
   # 8 = the Maxwell arms as activation states (`model_lib.maxwell_arm`), not bodies; 9 = the
   # plate's F/T as the net contact wrench (`model_lib.plate_wrench`), equal to 1e-9; 10 = the
-  # arms integrated by the compiled callback where there is one ("maxwell_arms"); 11 = the
-  # noise streams keyed by the commands on a nanometre grid (`STREAM_RESOLUTION`).
+  # arms integrated by the compiled callback where there is one ("maxwell_arms").
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "11", "maxwell_arms": model_lib.arm_dynamics()[0]}
+          "physics": "10", "maxwell_arms": model_lib.arm_dynamics()[0]}
 
 
 def cache_key(scene: FootpadScene) -> dict:
