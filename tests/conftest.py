@@ -8,6 +8,10 @@ import tempfile
 
 import pytest
 
+from util import blas
+
+blas.pin()  # set here too, before the workers start: they inherit it before NumPy loads
+
 # Keep test recordings out of the user's cache; finite-element kernels are shared.
 os.environ.setdefault("TESTBENCH_CACHE", str(pathlib.Path.home() / ".cache" / "footpad-testbench-tests"))
 # Compiled JAX programs shared by the test workers and the commands the tests run, which
