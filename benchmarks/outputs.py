@@ -1,6 +1,6 @@
 """The results folder of a run: checked before any work, filled when the run ends.
 
-`claim(out)` fails in the first second, with one line, when `--out` is a file, cannot be
+`util.files.claim(out)` (which `benchmarks.run` calls) fails in the first second, with one line, when `--out` is a file, cannot be
 created or written, or another live run holds it; otherwise it takes a lock file in it that
 `release` removes. The hold is the system's (`flock`): a run that was killed, however, holds
 nothing, and two runs started at once can never both hold one folder.
@@ -16,7 +16,6 @@ them), `table.md` (the printed report), and where the benchmark has them
 from __future__ import annotations
 
 import dataclasses
-import os
 import pathlib
 from typing import Any
 
@@ -35,11 +34,6 @@ def quiet_out_of_range() -> None:
   its text, so `--help` needs no JAX."""
   import warnings
   warnings.filterwarnings("ignore", message=".* outside the range this estimator")
-
-
-def claim(out: pathlib.Path) -> files.Lock:
-  """`util.files.claim` of the results folder `out` (--out)."""
-  return files.claim(out, "--out")
 
 
 # ---- what a finished run leaves in its folder -------------------------------------------

@@ -190,7 +190,7 @@ def _main(argv: Optional[list[str]]) -> int:
   if args.compare is not None:  # read before the run: a mistake costs no simulation
     earlier = outputs.read_rows(args.compare / "metrics.csv")
   files.usable_cache_dir()  # the recordings' cache too, before any simulation
-  lock = outputs.claim(out)  # before any simulation: a run that cannot write does not start
+  lock = files.claim(out, "--out")  # before any simulation: a run that cannot write does not start
   try:
     return _run(bench, args, applied, overrides, out, earlier,
                 sys.argv[1:] if argv is None else list(argv), preset)

@@ -92,10 +92,10 @@ def test_a_crawling_feed_in_a_csv_path_is_refused(tmp_path):
 
 def _contend(out, barrier, queue):
   import time
-  from benchmarks import outputs
+  from util import files
   barrier.wait()
   try:
-    lock = outputs.claim(out)
+    lock = files.claim(out)
   except errors.SettingError:
     queue.put(None)
     return

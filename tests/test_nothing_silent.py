@@ -253,8 +253,8 @@ def test_out_that_cannot_be_created_fails_at_once(capsys, tmp_path):
 
 def test_two_runs_never_share_an_out_folder(capsys, tmp_path):
   holder = subprocess.Popen(
-      [sys.executable, "-c", "import sys, time; from benchmarks import outputs; "
-       f"outputs.claim({str(tmp_path / 'out')!r}); print('held', flush=True); time.sleep(30)"],
+      [sys.executable, "-c", "import sys, time; from util import files; "
+       f"files.claim({str(tmp_path / 'out')!r}); print('held', flush=True); time.sleep(30)"],
       stdout=subprocess.PIPE, text=True)
   try:
     assert holder.stdout.readline().strip() == "held"
@@ -264,7 +264,7 @@ def test_two_runs_never_share_an_out_folder(capsys, tmp_path):
     holder.kill()  # killed: it never releases, its lock file stays
     holder.wait()
   assert (tmp_path / "out" / files.LOCK).exists()
-  lock = outputs.claim(tmp_path / "out")  # its run is gone: the lock is taken over
+  lock = files.claim(tmp_path / "out")  # its run is gone: the lock is taken over
   assert (tmp_path / "out" / files.LOCK).read_text() == str(os.getpid())
   lock.release()
   assert not (tmp_path / "out" / files.LOCK).exists()

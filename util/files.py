@@ -57,25 +57,27 @@ def _umask() -> int:
 _UMASK = None
 
 
-def output_folder(path, what: str) -> pathlib.Path:
+def output_folder(path, what: str, instead: str = "give a folder",
+                  writable: str = "give a folder you can write to") -> pathlib.Path:
   """Checks, before any work, a folder a command will write into: not a file, made if it is
   missing, and writable (a file is created in it and removed). Returns it.
 
   Raises:
-    errors.SettingError naming `what` (the option, e.g. "--out") and what to change.
+    errors.SettingError naming `what` (the option, e.g. "--out") and what to change:
+    `instead` of a file, `writable` of a folder it cannot write.
   """
   folder = pathlib.Path(path)
   if str(path).strip() == "":
     raise errors.SettingError(f"{what} is empty: give a folder")
   if folder.exists() and not folder.is_dir():
-    raise errors.SettingError(f"{what} {folder} is a file: give a folder")
+    raise errors.SettingError(f"{what} {folder} is a file: {instead}")
   try:
     folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryFile(dir=folder):
       pass
   except OSError as err:
-    raise errors.SettingError(f"{what} {folder} cannot be written ({err.strerror}): give a "
-                              f"folder you can write to") from None
+    raise errors.SettingError(f"{what} {folder} cannot be written ({err.strerror}): "
+                              f"{writable}") from None
   return folder
 
 
@@ -225,19 +227,10 @@ def usable_cache_dir() -> pathlib.Path:
   Raises:
     errors.SettingError naming TESTBENCH_CACHE (or the default) and what to change.
   """
-  root = cache_dir()
   what = "TESTBENCH_CACHE" if os.environ.get("TESTBENCH_CACHE") else "the cache folder"
-  if root.exists() and not root.is_dir():
-    raise errors.SettingError(f"{what} {root} is a file: point TESTBENCH_CACHE at a folder (or "
-                              f"unset it for ~/.cache/footpad-testbench)")
-  try:
-    root.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryFile(dir=root):
-      pass
-  except OSError as err:
-    raise errors.SettingError(f"{what} {root} cannot be written ({err.strerror}): point "
-                              f"TESTBENCH_CACHE at a folder you can write to") from None
-  return root
+  return output_folder(cache_dir(), what, "point TESTBENCH_CACHE at a folder (or unset it for "
+                       "~/.cache/footpad-testbench)",
+                       "point TESTBENCH_CACHE at a folder you can write to")
 
 
 def writer_pid(tmp: pathlib.Path) -> int | None:

@@ -48,8 +48,8 @@ STATES, HOLD = 48, 2.0  # the static dataset: load states, and seconds each is h
 FOOTPAD_TRAIN_DEPTHS = (0.0005, 0.001)  # m: the depths the calibrators see
 # footpad training sessions, each its own noise and drift draw: as many as the folds, since
 # with 3 the grouped cross-validation has 3 folds, whose standard error cannot tell the
-# candidates apart (measured, seed 0, quick: with 3 sessions auto kept NNx5 for Z, 1.66 %
-# NRMSE on the test sessions against LS's 1.29 %; with 5, POLY, 1.22 % against LS's 3.29 %)
+# candidates apart (measured, seed 0, quick, MuJoCo 3.17: with 3 sessions auto kept NNx5 for
+# Z, 1.66 % NRMSE on the test sessions against LS's 1.29 %)
 SESSIONS = 5
 # footpad test sessions: a session's offset is one draw, so its samples fall inside the
 # interval nearly all or nearly none; coverage is only a share over several sessions
