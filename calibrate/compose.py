@@ -171,19 +171,23 @@ def emit_estimate(part: Part, em, label: str, c: int, a: int, dest: str,
 @dataclasses.dataclass(frozen=True)
 class PerOutput(Part):
   """Each output j from part pick[j]. Beyond the training box [lo, hi] (the raw inputs'),
-  each part that is not `tame` (a network) is evaluated at c, where the line from the box's
-  centre to x leaves the box (`base.toward_centre`; `beyond` "clip": each input clipped
-  alone, as files written before 2026-11-27 do), and continued along the plane of the
-  `guard` part (the LS one): part(c) + LS(x) - LS(c). A network's held-out score says
-  nothing of inputs past the box, where it may bend anywhere (measured on the footpad's
-  1.5 mm presses past 0.5-1 mm training: NN-only Fz NRMSE 6.6 % where LS keeps 0.9 %); the
-  plane is the tamest continuation the data support, and it meets the network at the box's
-  faces."""
+  an output whose part is not `tame` (a network, a cubic) and whose `plane` flag is set takes
+  that part at c, where the line from the box's centre to x leaves the box
+  (`base.toward_centre`; `beyond` "clip": each input clipped alone, as files written
+  before 2026-11-27 do), continued along the plane of the `guard` part (the LS one):
+  part(c) + LS(x) - LS(c). A network's held-out score inside the box says nothing of inputs
+  past it, where it may bend anywhere (measured on the footpad's 1.5 mm presses past
+  0.5-1 mm training: NN-only Fz NRMSE 6.6 % where LS keeps 0.9 %); the plane is the tamest
+  continuation the data support, and it meets the part at the box's faces. `fit_auto`
+  clears an output's flag where the part's own extrapolation held out better beyond the
+  folds' boxes (`methods._continuations`); `plane` None: every flag set (files written
+  before 2026-11-29)."""
   parts: tuple
   pick: tuple
   lo: Optional[np.ndarray] = None
   hi: Optional[np.ndarray] = None
   beyond: str = "centre"
+  plane: Optional[tuple] = None
   NAME, LABEL = "per_output", "AUTO"
 
   @property
@@ -207,27 +211,41 @@ class PerOutput(Part):
       return None
     return labels.index("LS")
 
+  def guarded(self) -> list[bool]:
+    """Per output, whether it is continued along the LS plane beyond the box."""
+    ls = self.guard
+    flags = self.plane or (True,) * len(self.pick)
+    return [ls is not None and on and not self.parts[k].tame
+            for k, on in zip(self.pick, flags)]
+
   def children(self) -> dict:
     return {str(k): p for k, p in enumerate(self.parts)}
 
   def mean_spread(self, x, stream=None):
     each = [p.mean_spread(x, stream) for p in self.parts]
-    ls = self.guard
-    if ls is not None and ((x < self.lo) | (x > self.hi)).any():
-      inside = box_point(x, self.lo, self.hi, self.beyond)
-      plane = self.parts[ls].mean_spread(x)[0] - self.parts[ls].mean_spread(inside)[0]
-      for k, p in enumerate(self.parts):
-        if not p.tame:
-          mean, spread = p.mean_spread(inside)
-          each[k] = (mean + plane, spread)
+    spreads = [np.zeros_like(m) if s is None else s for m, s in each]
     cols = np.arange(len(self.pick))
     mean = np.stack([m for m, _ in each])[list(self.pick), :, cols].T
-    spreads = [np.zeros_like(m) if s is None else s for m, s in each]
-    return mean, np.stack(spreads)[list(self.pick), :, cols].T
+    spread = np.stack(spreads)[list(self.pick), :, cols].T
+    guarded = self.guarded()
+    ls = self.guard
+    if any(guarded) and ((x < self.lo) | (x > self.hi)).any():
+      inside = box_point(x, self.lo, self.hi, self.beyond)
+      plane = self.parts[ls].mean_spread(x)[0] - self.parts[ls].mean_spread(inside)[0]
+      for k in {self.pick[j] for j in cols if guarded[j]}:
+        m, s = self.parts[k].mean_spread(inside)
+        for j in cols:
+          if guarded[j] and self.pick[j] == k:
+            mean[:, j] = m[:, j] + plane[:, j]
+            spread[:, j] = 0.0 if s is None else s[:, j]
+    return mean, spread
 
   def leaves(self):
     arrays = {} if self.lo is None else {"lo": self.lo, "hi": self.hi}
-    return arrays, {"pick": list(self.pick), "beyond": self.beyond}
+    spec = {"pick": list(self.pick), "beyond": self.beyond}
+    if self.plane is not None:
+      spec["plane"] = [bool(v) for v in self.plane]
+    return arrays, spec
 
   @classmethod
   def from_leaves(cls, spec, arrays, children) -> "PerOutput":
@@ -236,32 +254,49 @@ class PerOutput(Part):
     if not parts or not all(0 <= k < len(parts) for k in pick) or \
        any(p.n_outputs != len(pick) for p in parts):
       raise ValueError("its parts do not fit its outputs")
+    plane = spec.get("plane")
+    if plane is not None and (len(plane) != len(pick)
+                              or not all(isinstance(v, bool) for v in plane)):
+      raise ValueError("its continuation flags do not fit its outputs")
     if "lo" in arrays:
       c = max(p.n_inputs for p in parts)
       check_shapes("training box", arrays, {"lo": (c,), "hi": (c,)})
-    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"), read_beyond(spec))
+    return cls(parts, pick, arrays.get("lo"), arrays.get("hi"), read_beyond(spec),
+               None if plane is None else tuple(plane))
 
   def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> list[str]:
-    """Each part into its own row of part[K][A], then each output from its part's row; the
-    network parts beyond the box as `mean_spread` computes them. Returns the lines (they
-    write out[] directly)."""
+    """Each part into its own row of part[K][A] (at x), the parts that continue along the
+    plane for some output also into held[K][A] (at the box point), then each output from
+    its part's row, as `mean_spread` computes it. Returns the lines (they write out[]
+    directly)."""
     a = self.n_outputs
-    body = [f"  float part[{len(self.parts)}][{a}];"]
+    guarded = self.guarded()
     ls = self.guard
-    if ls is not None:
+    held = {self.pick[j] for j in range(a) if guarded[j]}
+    # at x: every part but those only read at the box point
+    raw = set(range(len(self.parts))) - held | {self.pick[j] for j in range(a)
+                                                if not guarded[j]}
+    # a part read both at x and at the box point keeps the latter in held[][]
+    both = held & raw
+    where = {k: f"held[{k}]" if k in both else f"part[{k}]" for k in held}
+    body = [f"  float part[{len(self.parts)}][{a}];"]
+    if held:
       lo, hi = em.array("BOX_LO", self.lo), em.array("BOX_HI", self.hi)
-      body += [f"  float inside[{c}], plane[{a}];",
+      body += [f"  float inside[{c}], plane[{a}]"
+               + (f", held[{len(self.parts)}][{a}];" if both else ";"),
                *emit_box_point(lo, hi, "x", "inside", c, self.beyond, pad="  ")]
       # the LS part where the line to the box's centre leaves it (x shadowed by it there)
       body += self._at_box(emit_estimate(self.parts[ls], em, self.parts[ls].label, c, a,
                                            "plane", "BOX_"))
     for k, part in enumerate(self.parts):
-      lines = emit_estimate(part, em, part.label, c, a, f"part[{k}]", f"P{k}_")
-      body += self._at_box(lines) if ls is not None and not part.tame else lines
+      if k in raw:
+        body += emit_estimate(part, em, part.label, c, a, f"part[{k}]", f"P{k}_")
+      if k in held:
+        body += self._at_box(emit_estimate(part, em, part.label, c, a, where[k],
+                                           f"H{k}_" if k in both else f"P{k}_"))
     for j, k in enumerate(self.pick):
-      guarded = ls is not None and not self.parts[k].tame
-      body.append(f"  out[{j}] = part[{k}][{j}]" + (f" + part[{ls}][{j}] - plane[{j}];"
-                                                    if guarded else ";"))
+      body.append(f"  out[{j}] = {where[k]}[{j}] + part[{ls}][{j}] - plane[{j}];"
+                  if guarded[j] else f"  out[{j}] = part[{k}][{j}];")
     return body
 
   @staticmethod

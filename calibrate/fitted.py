@@ -45,12 +45,15 @@ class Estimator:
   """A fitted estimator: a tree of parts (`root`: `calibrate.parts` families composed by
   `calibrate.compose`), the method a user asked for (`kind`), what it was fitted on
   (`info`), and how its network's training went (`training`; `trainings`, an ensemble's
-  members' in order)."""
+  members' in order). `plane_info`: for `fit_auto`, the `info` its held-out predictions
+  gave continued along an LS plane beyond the training box (`methods.continued`); None
+  for a tame estimator and in files (it is not saved)."""
   kind: Kind
   root: Part
   info: Optional[Info] = None
   training: Optional[object] = None
   trainings: tuple = ()
+  plane_info: Optional[Info] = None
 
   @property
   def n_inputs(self) -> int:
