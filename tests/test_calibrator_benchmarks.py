@@ -79,3 +79,31 @@ def test_effect_ablation_switches_each_shell_effect_on_alone_then_all(tmp_path):
   # stray light wanders far above the 1-count noise: it costs the calibration most
   assert by["+stray_ir"]["error"] > 2 * by["baseline"]["error"]
   assert by["+sensor_noise"]["error"] < 1.2 * by["baseline"]["error"]
+
+
+def test_real_recordings_pools_its_draws_by_their_test_samples():
+  """Over draws, NRMSE is the draws' mean and coverage the share of every draw's test samples
+  inside: a draw of 300 samples, 1/3 beyond the box, and one of 100, none beyond."""
+  from benchmarks.calibrators import real_recordings as rr
+  one = {"auto": {"nrmse_pct": [2.0, 4.0], "r2_pct": [99.0, 98.0], "seconds": 1.0,
+                  "test_samples": 300, "inputs_out_of_box_pct": [100 / 3] * 2,
+                  "coverage_pct": [80.0, 90.0], "coverage_in_box_pct": [90.0, 95.0],
+                  "coverage_out_of_box_pct": [60.0, 80.0]},
+         "sklearn MLP": {"nrmse_pct": [3.0, 3.0], "r2_pct": [98.0, 98.0], "seconds": 2.0}}
+  two = {"auto": {"nrmse_pct": [4.0, 2.0], "r2_pct": [97.0, 99.0], "seconds": 3.0,
+                  "test_samples": 100, "inputs_out_of_box_pct": [0.0] * 2,
+                  "coverage_pct": [100.0, 50.0], "coverage_in_box_pct": [100.0, 50.0],
+                  "coverage_out_of_box_pct": [float("nan")] * 2},
+         "sklearn MLP": {"nrmse_pct": [1.0, 5.0], "r2_pct": [99.0, 97.0], "seconds": 4.0}}
+  got = rr.pool([one, two])
+  a = got["auto"]
+  np.testing.assert_allclose(a["nrmse_pct"], [3.0, 3.0])
+  np.testing.assert_allclose(a["seconds"], 2.0)
+  # in the box: 200 x 90 % + 100 x 100 % of 300; beyond: the first draw's 100 alone
+  np.testing.assert_allclose(a["coverage_in_box_pct"], [(180 + 100) / 3, (190 + 50) / 3])
+  np.testing.assert_allclose(a["coverage_out_of_box_pct"], [60.0, 80.0])
+  np.testing.assert_allclose(a["coverage_pct"], [(240 + 100) / 4, (270 + 50) / 4])
+  np.testing.assert_allclose(a["inputs_out_of_box_pct"], [25.0, 25.0])
+  assert a["test_samples"] == 400 and "coverage_pct" not in got["sklearn MLP"]
+  # the ratio of the means, not the mean of the ratios (0.67 and 4.0; 1.33 and 0.4)
+  assert rr.ratios(got, ("Fx", "Fy"))[0] == "auto / best baseline, per axis: Fx: 1.50 Fy: 0.75"
