@@ -232,12 +232,12 @@ class PerOutput(Part):
     if any(guarded) and ((x < self.lo) | (x > self.hi)).any():
       inside = box_point(x, self.lo, self.hi, self.beyond)
       plane = self.parts[ls].mean_spread(x)[0] - self.parts[ls].mean_spread(inside)[0]
-      for k in {self.pick[j] for j in cols if guarded[j]}:
-        m, s = self.parts[k].mean_spread(inside)
-        for j in cols:
-          if guarded[j] and self.pick[j] == k:
-            mean[:, j] = m[:, j] + plane[:, j]
-            spread[:, j] = 0.0 if s is None else s[:, j]
+      rows = np.flatnonzero(guarded)
+      at_box = {k: self.parts[k].mean_spread(inside) for k in {self.pick[j] for j in rows}}
+      for j in rows:
+        m, s = at_box[self.pick[j]]
+        mean[:, j] = m[:, j] + plane[:, j]
+        spread[:, j] = 0.0 if s is None else s[:, j]
     return mean, spread
 
   def leaves(self):

@@ -46,7 +46,7 @@ class Estimator:
   `calibrate.compose`), the method a user asked for (`kind`), what it was fitted on
   (`info`), and how its network's training went (`training`; `trainings`, an ensemble's
   members' in order). `plane_info`: for `fit_auto`, the `info` its held-out predictions
-  gave continued along an LS plane beyond the training box (`methods.continued`); None
+  gave continued along an LS plane beyond the training box (`compose.PerOutput`); None
   for a tame estimator and in files (it is not saved)."""
   kind: Kind
   root: Part

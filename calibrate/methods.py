@@ -29,7 +29,6 @@ from calibrate.info import (GROWTH_MIN, Info, data_digest, fold_distance, held_o
                             integer_counts)
 from calibrate.parts import linear, mlp
 from calibrate.parts import poly as poly_lib
-from calibrate.parts.base import toward_centre
 from util import errors
 
 
@@ -192,7 +191,7 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
   """Grouped K-fold cross-validation of `recipe`: (held-out residuals (N, A) of the
   estimator as kept, per-output mask of LSANN outputs whose network lost to its LS stage
   there, statistics, and with `plane` the held-out residuals (N, A) as `fit_auto` would
-  continue the estimator beyond the box (`continued`), None where it is tame). LSANN's LS
+  continue the estimator beyond the box (`compose.PerOutput`), None where it is tame). LSANN's LS
   stage is refitted per fold (a given one saw every sample)."""
   parts = splits.folds(groups, folds, seed)
   residual_of = getattr(recipe, "residual", False)
@@ -206,8 +205,10 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
       out.append(fitted.parts[0].base.mean_spread(x[va])[0])
     if plane:
       tame[0] = tame[0] and est.tame
-      out.append(continued(est, linear.fit_linear(x[tr], y[tr]), x[va], x[tr].min(axis=0),
-                           x[tr].max(axis=0)))
+      # as `fit_auto`'s estimator continues it: this fold's LS plane beyond this fold's box
+      out.append(out[0] if est.tame else compose.PerOutput(
+          (est, linear.fit_linear(x[tr], y[tr])), (0,) * y.shape[1], x[tr].min(axis=0),
+          x[tr].max(axis=0)).mean_spread(x[va])[0])
     return out
 
   runs = select.held_out(fold, y, parts, 1 + residual_of + plane)
@@ -228,18 +229,6 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
     if residual_of:  # an LS stage alone continues as its own plane
       beyond[:, only] = runs[1][:, only]
   return residual, only, stats, beyond
-
-
-def continued(part, ls, x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-  """(N, A) `part`'s prediction as `compose.PerOutput` continues it beyond the box [lo, hi]:
-  inside, its own; beyond, its value where the line to the box's centre leaves the box plus
-  the plane `ls`'s rise from there."""
-  out = np.array(part.mean_spread(x)[0], float)
-  far = np.any((x < lo) | (x > hi), axis=1)
-  if far.any():
-    inside = toward_centre(x[far], lo, hi)
-    out[far] = part.mean_spread(inside)[0] + ls.predict(x[far]) - ls.predict(inside)
-  return out
 
 
 def choose(candidates: dict, x, y, groups, folds, val, seed, plane=False):
@@ -439,8 +428,8 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
         box_columns=None, plane=False):
   """`calibrate.estimators.fit` (its docstring says what each option does). `plane`
   (`fit_auto`'s): the estimator's `plane_info` holds the interval and held-out error of its
-  predictions continued along an LS plane beyond the training box (`continued`), as
-  `compose.PerOutput` may continue it."""
+  predictions continued along an LS plane beyond the training box, as `compose.PerOutput`
+  may continue it."""
   counts, forces = check(kind, counts, forces, seed=seed, ensemble=ensemble,
                          net_inputs=net_inputs, degree=degree, groups=groups, folds=folds)
   named = names(counts.shape[1], forces.shape[1], inputs, outputs, input_units, output_units)

@@ -407,7 +407,6 @@ def _baselines(ctx, d: Data) -> dict:
           tags=("footpad", "shell", "calibration"))
 def run(ctx):
   from benchmarks import outputs
-  from calibrate import metrics
   data, rows = {}, []
   draws = ctx.settings.draws
   for k in range(draws):
@@ -423,13 +422,13 @@ def run(ctx):
       if ctx.settings.baselines:
         results.update(_baselines(sub, d))
       _print(ctx, rig, d, results)
-      name = rig if k == 0 else f"{rig} (seed {sub.seed})"
+      name = _drawn(rig, k, sub.seed)
       data[name] = {"what": d.what, "axes": list(d.axes), "results": results}
       rows += _rows(name, d.axes, results)
   if draws > 1:
     ctx.print(f"\n## over the {draws} draws (seeds {ctx.seed} to {ctx.seed + draws - 1})")
     for rig in ("data",) if ctx.settings.data else ctx.settings.rigs:
-      runs = [data[rig if k == 0 else f"{rig} (seed {ctx.seed + k})"] for k in range(draws)]
+      runs = [data[_drawn(rig, k, ctx.seed + k)] for k in range(draws)]
       pooled = pool([r["results"] for r in runs])
       axes = runs[0]["axes"]
       _print_pooled(ctx, rig, axes, pooled, [r["results"] for r in runs])
@@ -437,6 +436,11 @@ def run(ctx):
       data[name] = {"what": runs[0]["what"], "axes": axes, "results": pooled}
       rows += _rows(name, axes, pooled)
   return outputs.Result(data, tuple(rows))
+
+
+def _drawn(rig: str, k: int, seed: int) -> str:
+  """A rig's name in the results for draw k (the first draw's is the rig's own)."""
+  return rig if k == 0 else f"{rig} (seed {seed})"
 
 
 PER_AXIS = ("nrmse_pct", "r2_pct", "coverage_pct", "coverage_in_range_pct",
