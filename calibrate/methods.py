@@ -25,8 +25,8 @@ import numpy as np
 
 from calibrate import compose, parts, select, splits
 from calibrate.fitted import Estimator, Kind
-from calibrate.info import (GROWTH_MIN, Info, data_digest, fold_distance, held_out,
-                            integer_counts)
+from calibrate.info import (GROWTH_MIN, Info, data_digest, fold_distance, fold_nearest,
+                            held_out, integer_counts, reference)
 from calibrate.parts import linear, mlp
 from calibrate.parts import poly as poly_lib
 from util import errors
@@ -338,12 +338,13 @@ def infos(fitted: Fitted, x, y, settings: dict, named: dict, extra: dict) -> lis
   return [Info(residual_sd=sd, **base, **extra) for sd in fitted.sds]
 
 
-def interval_fields(residual, only, stats, groups, outputs, distance=None) -> dict:
+def interval_fields(residual, only, stats, groups, outputs, distance=None, near=None) -> dict:
   """`Info`'s interval and validation fields from a cross-validation (`distance`: each
-  held-out sample's beyond its training fold's box, `info.fold_distance`)."""
+  held-out sample's beyond its training fold's box, `info.fold_distance`; `near`: each one's
+  distance to its fold's nearest training row and the reference rows, `info.held_out`)."""
   return held_out(residual, groups, {**stats, "ls_only": [outputs[j]
                                                           for j in np.flatnonzero(only)]},
-                  distance)
+                  distance, near)
 
 
 def check(kind, counts, forces, *, seed, ensemble, net_inputs, degree, groups, folds):
@@ -463,9 +464,11 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
     if only.any():
       fitted = dataclasses.replace(fitted, parts=tuple(
           compose.Residual(p.base, p.residual.without_outputs(only)) for p in fitted.parts))
-    # the distance beyond the box over the raw counts (a front end's first columns)
-    distance = fold_distance(counts[:, :box_columns], parts)
-    extra = interval_fields(residual, only, stats, groups, named["outputs"], distance)
+    # the distances over the raw counts (a front end's first columns)
+    raw = counts[:, :box_columns]
+    distance = fold_distance(raw, parts)
+    near = (fold_nearest(raw, parts), reference(raw))
+    extra = interval_fields(residual, only, stats, groups, named["outputs"], distance, near)
   out = [Estimator(kind, p, i, training=t) for p, i, t in
          zip(fitted.parts, infos(fitted, counts, forces, settings, named, extra),
              fitted.trainings)]
@@ -473,7 +476,7 @@ def fit(kind, counts, forces, *, linear_fit=None, config=mlp.LMConfig(), val_fra
   if beyond is None:
     return est
   fields = interval_fields(beyond, only, select.stats(beyond, parts, groups), groups,
-                           named["outputs"], distance)
+                           named["outputs"], distance, near)
   return dataclasses.replace(est, plane_info=dataclasses.replace(est.info, **fields))
 
 
@@ -665,6 +668,18 @@ def _say_once(heard) -> None:
     warnings.warn(message, category, stacklevel=3)
 
 
+def _local_fields(infos) -> dict:
+  """AUTO's local scale: each output's from its candidate's info (all of them measure to the
+  same reference rows: the same training data); a candidate without one (a file from before
+  it) keeps one width for all (b 1, a 0)."""
+  ref = next((i.interval_reference for i in infos if i.interval_reference is not None), None)
+  if ref is None:
+    return dict(interval_local=None, interval_reference=None)
+  return dict(interval_reference=ref, interval_local=np.array(
+      [(1.0, 0.0) if i.interval_local is None else i.interval_local[j]
+       for j, i in enumerate(infos)]))
+
+
 def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
   """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate's
   (`infos`, one per output); `candidates` {name: held-out RMSE per output}."""
@@ -676,6 +691,7 @@ def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
           [i.interval_offsets[:, j] for j, i in zip(cols, infos)]),
       interval_growth=None if infos[0].interval_growth is None else np.array(
           [i.interval_growth[j] for j, i in zip(cols, infos)]),
+      **_local_fields(infos),
       settings={"method": "AUTO", "candidates": [n for n in candidates if not n.endswith(OWN)],
                 "seed": first.settings.get("seed"),
                 "integer_inputs": first.settings.get("integer_inputs")},

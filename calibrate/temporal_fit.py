@@ -16,7 +16,7 @@ import numpy as np
 
 from calibrate import compose, methods, select, splits
 from calibrate.fitted import Estimator, Kind
-from calibrate.info import data_digest, held_out, integer_counts
+from calibrate.info import data_digest, held_out, integer_counts, reference
 
 from calibrate.parts import gru as recurrent
 from calibrate.parts import linear
@@ -113,6 +113,8 @@ def raw_info(info, names, input_units, raw, forces, memory_settings):
   return dataclasses.replace(
       info, inputs=tuple(names), input_units=tuple(input_units or ("counts",) * c),
       input_lo=raw.min(axis=0), input_hi=raw.max(axis=0),
+      # the rows the local scale measured to, as the raw counts predict reads them
+      interval_reference=None if info.interval_reference is None else reference(raw),
       data_sha256=data_digest(raw, forces),
       settings={**info.settings, "memory": memory_settings,
                 "integer_inputs": integer_counts(raw)})

@@ -118,6 +118,11 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     print(f"{args.level:.0%} interval (held-out groups): " + ", ".join(
         f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
         f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
+    if info.interval_local is not None and info.interval_local[:, 1].any():
+      print("  within a recording it scales by b + a x the distance to the nearest training "
+            "sample (in training ranges; 1 on average over the held-out samples): " +
+            ", ".join(f"{o} {b:.3g} + {a:.3g} d" if a else f"{o} one width"
+                      for o, (b, a) in zip(info.outputs, info.interval_local)))
     if info.interval_growth is not None:
       n = v.get("held_out_beyond_box", 0)
       print("  beyond the training box it widens by 1 + g x the distance (in training ranges), "
