@@ -113,31 +113,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
   if v:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
-    half = info.half_width(args.level)
-    scale = np.abs(y).max(axis=0)
-    print(f"{args.level:.0%} interval (held-out groups): " + ", ".join(
-        f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
-        f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
-    if info.interval_local is not None and info.interval_local[:, 1].any():
-      print("  within a recording it scales by b + a x the distance to the nearest training "
-            "sample (in training ranges; 1 on average over the held-out samples): " +
-            ", ".join(f"{o} {b:.3g} + {a:.3g} d" if a else f"{o} one width"
-                      for o, (b, a) in zip(info.outputs, info.interval_local)))
-    if info.interval_growth is not None:
-      n = v.get("held_out_beyond_box", 0)
-      print("  beyond the training box it widens by 1 + g x the distance (in training ranges), "
-            "g " + ", ".join(f"{o} {g:.3g}" for o, g in zip(info.outputs, info.interval_growth))
-            + (f": measured on {n} held-out samples beyond their fold's box"
-               if n >= GROWTH_MIN else
-               f": too few held-out samples beyond their fold's box to measure it ({n}), so "
-               f"it doubles one training range out"))
-    between = info.between_width(args.level)
-    if between.any():
-      g = len(info.interval_offsets)
-      print(f"  of which how far a new group's mean error may lie (Student's t over {g} "
-            f"groups' means): " + ", ".join(f"{n} +-{b:.4g} {u}" for n, b, u in
-                                            zip(info.outputs, between, units))
-            + ("; more recordings narrow it" if g < 8 else ""))
+    interval_lines(info, args.level, np.abs(y).max(axis=0), units)
     if v.get("ls_only"):
       print(f"{est.kind.value} keeps only its LS stage on {', '.join(v['ls_only'])}: its "
             f"network did not beat the LS stage on held-out groups there")
@@ -146,6 +122,35 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
           "residual sd " + ", ".join(f"{n} {s:.4g} {u}" for n, s, u in
                                      zip(info.outputs, info.residual_sd, units)))
   training_lines(est, args, groups)
+
+
+def interval_lines(info, level: float, scale: np.ndarray, units) -> None:
+  """Prints the interval `fit` kept: its one width (and as % of full scale `scale`), how it
+  grows from the training data and beyond the box, its between-recordings part."""
+  half = info.half_width(level)
+  print(f"{level:.0%} interval (held-out groups): " + ", ".join(
+      f"{n} +-{h:.4g} {u} ({h / s:.1%} of full scale {s:.4g})" if s > 0 else
+      f"{n} +-{h:.4g} {u}" for n, h, u, s in zip(info.outputs, half, units, scale)))
+  if info.interval_local is not None and info.interval_local[:, 1].any():
+    print("  within a recording it grows by max(1, b + a x d), d the distance to the nearest "
+          "training sample (in training ranges): " +
+          ", ".join(f"{o} {b:.3g} + {a:.3g} d" if a else f"{o} one width"
+                    for o, (b, a) in zip(info.outputs, info.interval_local)))
+  if info.interval_growth is not None:
+    n = info.validation.get("held_out_beyond_box", 0)
+    print("  beyond the training box it widens by 1 + g x the distance (in training ranges), "
+          "g " + ", ".join(f"{o} {g:.3g}" for o, g in zip(info.outputs, info.interval_growth))
+          + (f": measured on {n} held-out samples beyond their fold's box"
+             if n >= GROWTH_MIN else
+             f": too few held-out samples beyond their fold's box to measure it ({n}), so "
+             f"it doubles one training range out"))
+  between = info.between_width(level)
+  if between.any():
+    g = len(info.interval_offsets)
+    print(f"  of which how far a new group's mean error may lie (Student's t over {g} "
+          f"groups' means): " + ", ".join(f"{n} +-{b:.4g} {u}" for n, b, u in
+                                          zip(info.outputs, between, units))
+          + ("; more recordings narrow it" if g < 8 else ""))
 
 
 def training_lines(est, args, groups) -> None:
