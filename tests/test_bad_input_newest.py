@@ -279,8 +279,9 @@ def _family(name):
     pytest.param("AUTO", marks=pytest.mark.slow)])
 def test_an_array_of_the_wrong_shape_is_refused_by_the_loader(tmp_path, capsys, family):
   """Every numeric array of the file a row short, or a scalar, re-signed: `predict` refuses
-  the file in one line naming it, and writes nothing (an array that may legitimately be
-  shorter, the offsets of one group fewer, excepted)."""
+  the file in one line naming it, and writes nothing (the arrays that may legitimately be
+  shorter excepted: the offsets of one group fewer, the interval's reference rows one
+  fewer)."""
   from util import files
   est, x = _family(family)
   est.save(tmp_path / "e.npz")
@@ -292,7 +293,8 @@ def test_an_array_of_the_wrong_shape_is_refused_by_the_loader(tmp_path, capsys, 
   for key, a in arrays.items():
     if a.dtype.kind not in "fi" or a.ndim == 0:
       continue
-    for bad in ([a[:-1]] if len(a) > 1 and not key.endswith("interval_offsets") else []) \
+    shorter = key.endswith(("interval_offsets", "interval_reference"))
+    for bad in ([a[:-1]] if len(a) > 1 and not shorter else []) \
         + [np.float64(1.0)]:
       changed = {**arrays, key: bad}
       signed = {**meta, "sha256": files.array_digest(changed)}
