@@ -46,7 +46,7 @@ class Info:
       the half-width times 1 + growth x the distance); None in older files (no growth).
     interval_local: (A, 2) per output (b, a): the within-recording part of the interval
       is `interval_abs`'s times max(1, b + a x the distance to the nearest training sample)
-      (`nearest`, `local_scale`); None in older files (one width for all).
+      (`nearest`, `local_slope`); None in older files (one width for all).
     interval_reference: (M, C') the training inputs (every k-th row, `REFERENCE_MAX` at
       most; the first C' inputs) that distance is measured to; None in older files.
   """
@@ -84,8 +84,9 @@ class Info:
     (`distance`): held-out groups inside the box say nothing of the error outside it, where
     an estimator extrapolates; measured as the folds' held-out samples beyond their own
     training fold's box (`held_out`)."""
-    half = self.half_width(level)  # checks the level, and that there is an interval
-    growth = np.zeros(len(half)) if self.interval_growth is None else self.interval_growth
+    self.check_level(level)
+    growth = np.zeros(len(self.outputs)) if self.interval_growth is None else \
+        self.interval_growth
     local = local_half(self.within_width(level), self.between_width(level),
                        self.local_scale(x))
     return local * (1.0 + np.outer(self.distance(x), growth))
@@ -98,8 +99,8 @@ class Info:
     fingertip, one width for all: 98-100 % of the test samples nearest the training data
     covered, 81-86 % of the farthest quarter, all inside the box; on the footpad, 84 % of
     the test beyond the box where the interval grew with the box distance alone, 98 % with
-    this scale as well). The scale is fitted on the held-out samples (`local_scale`, the
-    module's function), but held below 1 it would narrow the interval near the training
+    this scale as well). The scale is fitted on the held-out samples (`local_slope`), but
+    held below 1 it would narrow the interval near the training
     data, and new recordings need not keep that promise: on the fingertip's deeper test
     presses it dropped the in-box coverage from 88.8 to 85.2 % (Fy, two draws)."""
     x = np.asarray(x, float)
@@ -128,6 +129,12 @@ class Info:
     Raises:
       errors.DataError when the estimator was fitted without cross-validation.
     """
+    self.check_level(level)
+    return np.hypot(self.within_width(level), self.between_width(level))
+
+  def check_level(self, level: float) -> None:
+    """Raises errors.DataError when the estimator holds no interval, errors.SettingError
+    when `level` is out of range."""
     if self.interval_abs is None:
       raise errors.DataError("the estimator holds no interval: it was fitted without grouped "
                              "cross-validation (--folds 0, or before intervals existed); fit "
@@ -135,7 +142,6 @@ class Info:
     if not 0.5 <= level <= 0.999:
       raise errors.SettingError(f"interval level {level!r} is out of range: allowed 0.5 to "
                                 f"0.999")
-    return conformal_half(self.interval_abs, self.interval_n, self.interval_offsets, level)
 
   def between_width(self, level: float) -> np.ndarray:
     """(A,) the between-recordings part of `half_width` (zeros in older files)."""
@@ -210,14 +216,6 @@ def data_digest(counts: np.ndarray, forces: np.ndarray) -> str:
                              "targets": np.asarray(forces, float)})
 
 
-def conformal_half(interval_abs: np.ndarray, n: int, offsets: Optional[np.ndarray],
-                   level: float) -> np.ndarray:
-  """(A,) `Info.half_width` from its fields: the within-recording conformal quantile and
-  the between-recordings part, added in quadrature."""
-  return np.hypot(within(interval_abs, n, level),
-                  between(offsets, interval_abs.shape[1], level))
-
-
 def within(interval_abs: np.ndarray, n: int, level: float) -> np.ndarray:
   """(A,) the split-conformal quantile at `level` of n held-out scores whose quantiles at
   `INTERVAL_GRID` are `interval_abs` (P, A)."""
@@ -250,7 +248,7 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
   (`box_distance`), for the interval's growth there (None: no growth); `near`: (each
   held-out sample's distance (N,) to the nearest of its training fold's reference rows,
   `fold_nearest`; the reference rows of all the training data (M, C')), for the local scale
-  (`local_scale`; None: none)."""
+  (`local_slope`; None: none)."""
   # every sample its own group (the paper's split): no recording offsets to tell apart
   offsets = group_means(residual, groups.labels) if groups.how != "samples" else None
   within_r = residual if offsets is None else \
@@ -259,11 +257,11 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
              interval_n=len(residual), interval_offsets=offsets, validation=stats)
   scale = np.ones_like(residual)
   if near is not None:
-    local = local_scale(np.abs(within_r), near[0])
+    slope, q = local_slope(np.abs(within_r), near[0])
     # relative to the one width: at GROWTH_LEVEL, b + a d times it is the local interval
     flat = within(out["interval_abs"], len(residual), GROWTH_LEVEL)
-    scaled = conformal_scaled(np.abs(within_r), local, near[0])
-    local *= np.where(flat > 0, scaled / np.where(flat > 0, flat, 1.0), 1.0)[:, None]
+    b = np.where(flat > 0, q / np.where(flat > 0, flat, 1.0), 1.0)
+    local = np.column_stack([b, b * slope])
     scale = np.maximum(1.0, local[:, 0] + np.outer(near[0], local[:, 1]))
     out.update(interval_local=local, interval_reference=near[1])
   if distance is not None:
@@ -294,8 +292,7 @@ def interval_growth(abs_residual: np.ndarray, distance: np.ndarray, half: np.nda
     return np.full(abs_residual.shape[1], GROWTH_DEFAULT), n
   half = np.broadcast_to(half, abs_residual.shape)[out]
   score = (abs_residual[out] / np.where(half > 0, half, 1.0) - 1.0) / distance[out, None]
-  k = min(n, int(np.ceil((n + 1) * GROWTH_LEVEL)))
-  return np.maximum(np.sort(score, axis=0)[k - 1], 0.0), n
+  return np.maximum(conformal(score), 0.0), n
 
 
 # how steeply the local scale may grow with the distance to the nearest training sample, per
@@ -306,39 +303,37 @@ LOCAL_SLOPES = (0.0,) + tuple(np.geomspace(0.1, 1000.0, 17))
 LOCAL_BINS = 4  # the slope evens the coverage over this many quantile bins of the distance
 
 
-def local_scale(abs_within: np.ndarray, near: np.ndarray) -> np.ndarray:
-  """(A, 2) per output (b, a): the local scale b + a x `near` of the within-recording half-
-  width. Its slope is the one of `LOCAL_SLOPES` under which the split-conformal
-  `GROWTH_LEVEL` interval (on |r| over the scale) covers the held-out samples most evenly
-  over `LOCAL_BINS` quantile bins of their distance (least squared departure from the
-  level); normalised to average 1 over them, so that slope 0, the first, is b = 1, a = 0:
-  one width for all (`held_out` then makes it relative to the one width). The narrowest interval on average is not the one: on errors that
-  spread as 1 + 10 d it takes the slope 5, and covers 92.5 % of the nearest half.
-  abs_within: (N, A) held-out absolute residuals less their group's mean; near: (N,) each
-  one's distance to its training fold's nearest reference row."""
+def local_slope(abs_within: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+  """((A,) per output the slope g of the local scale 1 + g x `near`, (A,) the split-
+  conformal `GROWTH_LEVEL` quantile of |r| over that scale). The slope is the one of
+  `LOCAL_SLOPES` under which that interval covers the held-out samples most evenly over
+  `LOCAL_BINS` quantile bins of their distance (least squared departure from the level);
+  0, the first, is one width for all. The narrowest interval on average is not the one: on
+  errors that spread as 1 + 10 d it takes the slope 5, and covers 92.5 % of the nearest
+  half. abs_within: (N, A) held-out absolute residuals less their group's mean; near: (N,)
+  each one's distance to its training fold's nearest reference row."""
   edges = np.quantile(near, np.linspace(0, 1, LOCAL_BINS + 1)[1:-1])
   bins = np.searchsorted(edges, near, side="right")
   present = np.unique(bins)
-  out = np.zeros((abs_within.shape[1], 2))
+  slope, quantile = np.zeros(abs_within.shape[1]), np.zeros(abs_within.shape[1])
   best = np.full(abs_within.shape[1], np.inf)
   for g in LOCAL_SLOPES:
-    s = 1.0 + g * near
-    q = conformal_scaled(abs_within, np.tile([1.0, g], (abs_within.shape[1], 1)), near)
-    inside = abs_within <= q * s[:, None]
+    s = (1.0 + g * near)[:, None]
+    q = conformal(abs_within / s)
+    inside = abs_within <= q * s
     loss = sum((inside[bins == j].mean(axis=0) - GROWTH_LEVEL) ** 2 for j in present)
     better = loss < best - 1e-12  # a tie keeps the gentler slope
     best = np.where(better, loss, best)
-    out[better] = (1.0 / s.mean(), g / s.mean())
-  return out
+    slope[better], quantile[better] = g, q[better]
+  return slope, quantile
 
 
-def conformal_scaled(abs_within: np.ndarray, local: np.ndarray, near: np.ndarray
-                     ) -> np.ndarray:
-  """(A,) the split-conformal `GROWTH_LEVEL` quantile of |r| / (b + a x near)."""
-  scale = local[:, 0] + np.outer(near, local[:, 1])
-  n = len(near)
+def conformal(scores: np.ndarray) -> np.ndarray:
+  """(A,) the split-conformal `GROWTH_LEVEL` quantile of n held-out scores (n, A): the
+  ceil((n + 1) level)-th smallest (the largest when n is too small)."""
+  n = len(scores)
   k = min(n, int(np.ceil((n + 1) * GROWTH_LEVEL)))
-  return np.partition(abs_within / scale, k - 1, axis=0)[k - 1]
+  return np.partition(scores, k - 1, axis=0)[k - 1]
 
 
 REFERENCE_MAX = 2000  # the training rows kept to measure the distance to the nearest

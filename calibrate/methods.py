@@ -668,18 +668,6 @@ def _say_once(heard) -> None:
     warnings.warn(message, category, stacklevel=3)
 
 
-def _local_fields(infos) -> dict:
-  """AUTO's local scale: each output's from its candidate's info (all of them measure to the
-  same reference rows: the same training data); a candidate without one (a file from before
-  it) keeps one width for all (b 1, a 0)."""
-  ref = next((i.interval_reference for i in infos if i.interval_reference is not None), None)
-  if ref is None:
-    return dict(interval_local=None, interval_reference=None)
-  return dict(interval_reference=ref, interval_local=np.array(
-      [(1.0, 0.0) if i.interval_local is None else i.interval_local[j]
-       for j, i in enumerate(infos)]))
-
-
 def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
   """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate's
   (`infos`, one per output); `candidates` {name: held-out RMSE per output}."""
@@ -691,7 +679,10 @@ def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
           [i.interval_offsets[:, j] for j, i in zip(cols, infos)]),
       interval_growth=None if infos[0].interval_growth is None else np.array(
           [i.interval_growth[j] for j, i in zip(cols, infos)]),
-      **_local_fields(infos),
+      # every candidate measures to the same reference rows: the same training data
+      interval_local=None if infos[0].interval_local is None else np.array(
+          [i.interval_local[j] for j, i in zip(cols, infos)]),
+      interval_reference=infos[0].interval_reference,
       settings={"method": "AUTO", "candidates": [n for n in candidates if not n.endswith(OWN)],
                 "seed": first.settings.get("seed"),
                 "integer_inputs": first.settings.get("integer_inputs")},
