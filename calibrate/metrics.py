@@ -51,6 +51,26 @@ def worst_pct_of_range(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
   return 100.0 * np.max(np.abs(pred - truth), axis=1) / np.ptp(truth, axis=1)
 
 
+def share_range(hits: np.ndarray, n: np.ndarray, seed: int, level: float = 0.9,
+                resamples: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+  """(lo (A,), hi (A,)): the central `level` of a share, e.g. an interval's coverage, over
+  `resamples` resamplings with replacement of the R groups its samples come in (percentile
+  bootstrap over groups). A recording's samples share one draw of its offset, so they fall
+  inside an interval nearly all or nearly none, and a coverage rests on R draws, not on its
+  thousands of samples. hits (R, A): samples inside per group and output; n (R,): samples
+  per group (groups of none are left out). NaN with fewer than 2 groups: one draw tells no
+  spread."""
+  hits, n = np.asarray(hits, float).reshape(len(n), -1), np.asarray(n, float)
+  keep = n > 0
+  hits, n = hits[keep], n[keep]
+  if len(n) < 2:
+    return np.full(hits.shape[1], np.nan), np.full(hits.shape[1], np.nan)
+  pick = np.random.default_rng(seed).integers(0, len(n), (resamples, len(n)))
+  share = 100.0 * hits[pick].sum(axis=1) / n[pick].sum(axis=1)[:, None]
+  tail = 50.0 * (1.0 - level)
+  return np.percentile(share, tail, axis=0), np.percentile(share, 100.0 - tail, axis=0)
+
+
 def _columns(a) -> np.ndarray:
   """(C, N) the columns of a (N, C) as contiguous rows: numpy takes the maximum, range or a
   masked selection of those several times faster than of the short rows of `a`."""

@@ -107,3 +107,38 @@ def test_real_recordings_pools_its_draws_by_their_test_samples():
   assert a["test_samples"] == 400 and "coverage_pct" not in got["sklearn MLP"]
   # the ratio of the means, not the mean of the ratios (0.67 and 4.0; 1.33 and 0.4)
   assert rr.ratios(got, ("Fx", "Fy"))[0] == "auto / best baseline, per axis: Fx: 1.50 Fy: 0.75"
+
+
+def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
+  """A coverage resting on R recordings, each nearly all inside or all outside its interval,
+  is a share of R draws: resampled over the recordings its 90 % range is the binomial's
+  (scipy), not a sample count's; pooled draws resample every draw's recordings together."""
+  import scipy.stats
+  from benchmarks.calibrators import real_recordings as rr
+  from calibrate import metrics
+  r, p = 40, 0.9  # 36 of 40 equal recordings inside, 4 outside
+  hits = np.column_stack([np.r_[np.full(36, 100.0), np.zeros(4)], np.full(r, 50.0)])
+  lo, hi = metrics.share_range(hits, np.full(r, 100.0), seed=3, resamples=20_000)
+  want = 100 * scipy.stats.binom.ppf([0.05, 0.95], r, p) / r
+  np.testing.assert_allclose([lo[0], hi[0]], want, atol=2.5)  # one recording is 2.5 %
+  assert lo[1] == hi[1] == 50.0  # every recording half inside: no spread
+  again = metrics.share_range(hits, np.full(r, 100.0), seed=3, resamples=20_000)
+  np.testing.assert_array_equal(again[0], lo)  # the same seed, the same range
+  # a recording without in-box samples is no draw; one recording alone tells no spread
+  none = metrics.share_range(np.array([[5.0], [0.0]]), np.array([10.0, 0.0]), seed=0)
+  assert np.isnan(none).all()
+  # pooled draws resample their recordings together
+  draw = {"auto": {"nrmse_pct": [1.0], "r2_pct": [99.0], "seconds": 1.0, "test_samples": 300,
+                   "inputs_out_of_box_pct": [0.0], "coverage_pct": [100.0],
+                   "coverage_in_box_pct": [100.0], "coverage_out_of_box_pct": [float("nan")],
+                   "in_box_by_recording": [100.0, 100.0, 100.0],
+                   "in_box_inside_by_recording": [[100.0, 100.0, 100.0]]}}
+  worse = {"auto": {**draw["auto"], "coverage_pct": [0.0], "coverage_in_box_pct": [0.0],
+                    "in_box_inside_by_recording": [[0.0, 0.0, 0.0]]}}
+  got = rr.pool([draw, worse], seed=1)["auto"]
+  assert got["in_box_by_recording"] == [100.0] * 6
+  assert got["in_box_inside_by_recording"] == [[100.0] * 3 + [0.0] * 3]
+  lo, hi = got["coverage_in_box_range_pct"]
+  assert lo[0] < 50.0 < hi[0] and got["coverage_in_box_pct"] == [50.0]
+  line = rr.coverage_spread({"auto": got}, ("Fx",))[0]
+  assert "rests on 6 test recordings" in line and f"Fx: {lo[0]:.1f}-{hi[0]:.1f}" in line

@@ -90,7 +90,9 @@ class RealRecordings:
       coverage over every draw's test samples. One draw's coverage rests on its five test
       sessions, each one draw of an offset that its samples share: measured (quick, old
       candidates' scoring), auto's in-box coverage of shell_static's Fx was 90.9 % in draw
-      0 and 80.3 % in draw 1, of the fingertip's Fy 93.1 and 84.4 %.
+      0 and 80.3 % in draw 1, of the fingertip's Fy 93.1 and 84.4 %. So auto's in-box
+      coverage is printed with its spread over the test recordings it rests on
+      (`calibrate.metrics.share_range`), each draw's and over the draws.
   """
   rigs: tuple[Literal["footpad", "shell", "shell_static", "fingertip"], ...] = (
       "footpad", "shell", "shell_static", "fingertip")
@@ -129,7 +131,8 @@ def settings(quick: bool, seed: int) -> RealRecordings:
 @dataclasses.dataclass(frozen=True)
 class Data:
   """One rig's recordings: training and test inputs (N, C), targets (N, A), the training
-  recording of every sample (the groups held out), the axes' names."""
+  recording of every sample (the groups held out), the axes' names, and the test recording
+  of every test sample (the groups a coverage rests on)."""
   x: np.ndarray
   y: np.ndarray
   rec: np.ndarray
@@ -137,6 +140,7 @@ class Data:
   yt: np.ndarray
   axes: tuple[str, ...]
   what: str
+  rect: np.ndarray
 
 
 def _footpad(ctx) -> Data:
@@ -157,7 +161,7 @@ def _footpad(ctx) -> Data:
     xs.append(train.counts[keep])
     ys.append(train.wrench[keep, :3])
     recs.append(np.full(len(keep), k))  # the session is the recording (module docstring)
-  xt, yt = [], []
+  xt, yt, rect = [], [], []
   for k in range(SESSIONS, SESSIONS + TEST_SESSIONS):
     scenes = protocol.scenes(dataclasses.replace(base, session=k))
     test, _ = scene_lib.generate(scenes["test"], ctx.progress(f"footpad test session {k + 1}"),
@@ -166,12 +170,13 @@ def _footpad(ctx) -> Data:
     test = test.on_path()
     xt.append(test.counts[::step])
     yt.append(test.wrench[::step, :3])
+    rect.append(np.full(len(xt[-1]), k))
   rec = np.concatenate(recs)
   return Data(np.vstack(xs), np.vstack(ys), rec, np.vstack(xt), np.vstack(yt),
               ("X", "Y", "Z"),
               f"footpad: {SESSIONS} training sessions (the recordings held out in turn), "
               f"their episodes at 0.5-1 mm; tested on {TEST_SESSIONS} other sessions' test "
-              f"paths at 0.5-1.5 mm; every 10th sample")
+              f"paths at 0.5-1.5 mm; every 10th sample", np.concatenate(rect))
 
 
 def _shell(ctx) -> Data:
@@ -203,13 +208,13 @@ def _shell(ctx) -> Data:
       ys.append(run.wrench[::step])
       recs.append(np.full(len(xs[-1]), k))
     out.append((np.vstack(xs), np.vstack(ys), np.concatenate(recs), scene.frames))
-  (x, y, rec, frames), (xt, yt, _, test_frames) = out
+  (x, y, rec, frames), (xt, yt, rect, test_frames) = out
   return Data(x, y, rec, xt, yt, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
               f"shell with stray_ir: {SHELL_SESSIONS} calibration sessions of "
               f"{frames // SHELL_SESSIONS / scene_lib.FRAME_RATE:.0f} s (the recordings held "
               f"out in turn), tested on {SHELL_SESSIONS} other sessions of "
               f"{test_frames // SHELL_SESSIONS / scene_lib.FRAME_RATE:.0f} s"
-              + (f"; every {step}th frame" if step > 1 else ""))
+              + (f"; every {step}th frame" if step > 1 else ""), rect)
 
 
 def _shell_static(ctx) -> Data:
@@ -228,10 +233,10 @@ def _shell_static(ctx) -> Data:
     loads = np.repeat(states, frames, axis=0)
     _, counts = scene_lib.sense(board, scene_lib.static_pose(board.params, loads), int(seed))
     out.append((counts, loads, np.repeat(np.arange(STATES), frames)))
-  (x, y, rec), (xt, yt, _) = out
+  (x, y, rec), (xt, yt, rect) = out
   return Data(x, y, rec, xt, yt, ("Fx", "Fy", "Fz", "Mx", "My", "Mz"),
               f"shell, static: {STATES} load states held {HOLD:g} s each (a weight in a few "
-              f"poses), {STATES} other states to test, stray_ir on")
+              f"poses), {STATES} other states to test, stray_ir on", rect)
 
 
 def _fingertip(ctx) -> Data:
@@ -254,7 +259,7 @@ def _fingertip(ctx) -> Data:
   return Data(train.x, train.y, train.recording, test.x, test.y, ("Fx", "Fy", "Fz"),
               f"fingertip (synthetic magnetometers, 12 channels): {n} training recordings of "
               f"{seconds:g} s to 6 N, {max(3, n // 2)} test recordings to 9 N; through merge, "
-              f"unwrap and tare: " + "; ".join(said))
+              f"unwrap and tare: " + "; ".join(said), test.recording)
 
 
 def _user_data(ctx) -> Data:
@@ -279,7 +284,8 @@ def _user_data(ctx) -> Data:
   axes = tuple(tables[0].names[i] for i in tables[0].columns(columns[1], "targets"))
   return Data(train.x, train.y, train.recording, test.x, test.y, axes,
               f"{s.data}: {len(paths) - n_test} training recordings ({paths[0].name} ...), "
-              f"{n_test} test recordings ({', '.join(p.name for p in paths[-n_test:])})")
+              f"{n_test} test recordings ({', '.join(p.name for p in paths[-n_test:])})",
+              test.recording)
 
 
 def _ready(tables, inputs, targets, steps, train=None):
@@ -363,6 +369,12 @@ def _ours(ctx, d: Data) -> dict:
             np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
       else:
         r["chosen"] = auto.info.validation["chosen"]
+        # per test recording: what its coverage's spread over recordings is drawn from
+        labels = np.unique(d.rect, return_inverse=True)[1]
+        r["in_box_by_recording"] = np.bincount(labels, ~far).tolist()
+        r["in_box_inside_by_recording"] = [np.bincount(labels, inside[:, j] & ~far).tolist()
+                                           for j in range(len(d.axes))]
+        _coverage_range(r, ctx.seed)
       out[name] = r
   return out
 
@@ -429,7 +441,7 @@ def run(ctx):
     ctx.print(f"\n## over the {draws} draws (seeds {ctx.seed} to {ctx.seed + draws - 1})")
     for rig in ("data",) if ctx.settings.data else ctx.settings.rigs:
       runs = [data[_drawn(rig, k, ctx.seed + k)] for k in range(draws)]
-      pooled = pool([r["results"] for r in runs])
+      pooled = pool([r["results"] for r in runs], ctx.seed)
       axes = runs[0]["axes"]
       _print_pooled(ctx, rig, axes, pooled, [r["results"] for r in runs])
       name = f"{rig} (over {draws} draws)"
@@ -458,10 +470,11 @@ def _rows(name: str, axes, results: dict) -> list:
                  for m, r in results.items()]
 
 
-def pool(draws: list[dict]) -> dict:
+def pool(draws: list[dict], seed: int = 0) -> dict:
   """{method: scores} over several draws' results ({method: scores} each): NRMSE, R^2 and
   fit seconds averaged over the draws; coverage in the box, beyond it and in all over every
-  draw's test samples there (each draw weighed by its test samples in that part)."""
+  draw's test samples there (each draw weighed by its test samples in that part), and its
+  spread over every draw's test recordings (resampled with `seed`)."""
   out = {}
   for m in draws[0]:
     runs = [d[m] for d in draws]
@@ -480,6 +493,11 @@ def pool(draws: list[dict]) -> dict:
       r["inputs_out_of_box_pct"] = [float(100 * np.sum(n * far) / np.sum(n))] * len(
           runs[0]["nrmse_pct"])
       r["test_samples"] = int(n.sum())
+    if "in_box_by_recording" in runs[0]:  # every draw's test recordings side by side
+      r["in_box_by_recording"] = sum((x["in_box_by_recording"] for x in runs), [])
+      r["in_box_inside_by_recording"] = [sum((x["in_box_inside_by_recording"][j] for x in runs),
+                                             []) for j in range(len(r["nrmse_pct"]))]
+      _coverage_range(r, seed)
     out[m] = r
   return out
 
@@ -536,8 +554,30 @@ def _table(ctx, axes, results: dict) -> None:
               + f"  {cols('coverage_in_box_pct')}  {cols('coverage_out_of_box_pct')}  "
               f"{cols('single_split_coverage_pct')} {r['seconds']:7.1f}"
               + (f"  kept: {', '.join(r['chosen'])}" if "chosen" in r else ""))
-  for line in ratios(results, axes):
+  for line in ratios(results, axes) + coverage_spread(results, axes):
     ctx.print(line)
+
+
+def _coverage_range(r: dict, seed: int) -> None:
+  """Into scores `r` holding the in-box counts per test recording: the in-box coverage's
+  spread over those recordings (`metrics.share_range`, 90 %), [lo per axis, hi per axis]."""
+  from calibrate import metrics
+  lo, hi = metrics.share_range(np.array(r["in_box_inside_by_recording"], float).T,
+                               np.array(r["in_box_by_recording"], float), seed)
+  r["coverage_in_box_range_pct"] = [lo.tolist(), hi.tolist()]
+
+
+def coverage_spread(results: dict, axes) -> list[str]:
+  """auto's in-box coverage's spread over its test recordings: a coverage outside the band
+  around the level may be one that few recordings cannot tell from it."""
+  r = results.get("auto", {})
+  lo, hi = np.array(r.get("coverage_in_box_range_pct", [[np.nan], [np.nan]]), float)
+  if not np.isfinite(lo).all():
+    return []
+  return [f"auto's coverage in the box rests on {sum(n > 0 for n in r['in_box_by_recording'])} "
+          f"test recordings (a recording's samples share its offset): resampling them, 90 % "
+          f"of its values lie in " + " ".join(f"{a}: {a_lo:.1f}-{a_hi:.1f}"
+                                               for a, a_lo, a_hi in zip(axes, lo, hi))]
 
 
 def ratios(results: dict, axes) -> list[str]:
