@@ -211,6 +211,9 @@ def test_the_command_fits_several_recordings_and_reports_coverage(tmp_path, caps
   assert (pred.data[:, 4:7] < pred.data[:, 1:4]).all()
   assert cli.main(["evaluate", str(tmp_path / "e.npz"), "--csv", str(tmp_path / "run5.csv"),
                    "--out", str(tmp_path / "ev")]) == 0
+  said = capsys.readouterr().out
+  # a coverage of one file is one draw of its offset: the report says so
+  assert "this file is one recording: its samples share one draw of its offset" in said
   got = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
   assert all(0 <= got[ax]["interval_coverage_pct"] <= 100 for ax in ("Fx", "Fy", "Fz"))
   assert all("truth_outside_training_pct" in got[ax] for ax in ("Fx", "Fy", "Fz"))
