@@ -108,7 +108,7 @@ class Info:
       return np.ones((len(x), len(self.outputs)))
     c = self.interval_reference.shape[1]
     d = nearest(x[:, :c], self.interval_reference, self.input_lo[:c], self.input_hi[:c])
-    return np.maximum(1.0, self.interval_local[:, 0] + np.outer(d, self.interval_local[:, 1]))
+    return scale_at(self.interval_local, d)
 
   def within_width(self, level: float) -> np.ndarray:
     """(A,) the within-recording part of `half_width` (its split-conformal quantile)."""
@@ -223,6 +223,12 @@ def within(interval_abs: np.ndarray, n: int, level: float) -> np.ndarray:
   return np.array([np.interp(p, INTERVAL_GRID, q) for q in interval_abs.T])
 
 
+def scale_at(local: np.ndarray, d: np.ndarray) -> np.ndarray:
+  """(N, A) the local scale max(1, b + a x d) of (A, 2) per-output (b, a) `local` at (N,)
+  distances `d` to the nearest training sample (`Info.local_scale`, held out in `held_out`)."""
+  return np.maximum(1.0, local[:, 0] + np.outer(d, local[:, 1]))
+
+
 def local_half(within_part: np.ndarray, between_part: np.ndarray, scale: np.ndarray
                ) -> np.ndarray:
   """(N, A) half-widths: the within part (A,) times each row's local scale (N, A), added in
@@ -262,7 +268,7 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
     flat = within(out["interval_abs"], len(residual), GROWTH_LEVEL)
     b = np.where(flat > 0, q / np.where(flat > 0, flat, 1.0), 1.0)
     local = np.column_stack([b, b * slope])
-    scale = np.maximum(1.0, local[:, 0] + np.outer(near[0], local[:, 1]))
+    scale = scale_at(local, near[0])
     out.update(interval_local=local, interval_reference=near[1])
   if distance is not None:
     a = residual.shape[1]

@@ -70,10 +70,10 @@ def coverage_line(result: dict, names, far: np.ndarray, level: float) -> str:
   return text
 
 
-def one_draw_line(info) -> str | None:
+def one_draw_line(info, level: float) -> str | None:
   """Said where the interval has a between-recordings part: one file is one draw of its
   offset, so its coverage is one draw of what the level promises over recordings."""
-  if info.interval_offsets is None or len(info.interval_offsets) < 2:
+  if not info.between_width(level).any():
     return None
   return ("this file is one recording: its samples share one draw of its offset, so they "
           "fall inside nearly all or nearly none, and the level is a share over recordings: "
@@ -116,7 +116,7 @@ def _evaluate(args, out) -> int:
     print("no interval: the estimator was fitted without grouped cross-validation")
   else:
     print(coverage_line(result, names, far, args.level))
-    if (line := one_draw_line(info)) is not None:
+    if (line := one_draw_line(info, args.level)) is not None:
       print(line)
   question_lines(info, names, units)
   metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
