@@ -115,6 +115,15 @@ class Estimator:
     training box (None: no LS part, or no network part, or no training range)."""
     return self._stage.guard if isinstance(self._stage, compose.PerOutput) else None
 
+  def continued(self) -> tuple[list[str], Optional[float]]:
+    """AUTO: (the outputs whose part is continued along the LS plane past the training box,
+    how far past it the held-out samples checked that, in training ranges, past which the
+    part's correction fades to half: `compose.PerOutput`; None for files written before)."""
+    s = self._stage
+    if not isinstance(s, compose.PerOutput) or self.info is None:
+      return [], None
+    return [n for n, on in zip(self.info.outputs, s.guarded()) if on], s.reach
+
   def predict(self, counts: np.ndarray, return_std: bool = False,
               segments: Optional[np.ndarray] = None, contact: Optional[np.ndarray] = None,
               sessions: Optional[np.ndarray] = None):

@@ -13,6 +13,7 @@ from typing import Optional
 import numpy as np
 
 from calibrate import splits
+from calibrate.parts.base import box_distance
 from util import errors, files
 
 
@@ -276,7 +277,10 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
                       between(offsets, a, GROWTH_LEVEL), scale)
     growth, beyond = interval_growth(np.abs(residual), distance, half)
     out["interval_growth"] = growth
-    out["validation"] = {**stats, "held_out_beyond_box": int(beyond)}
+    out["validation"] = {**stats, "held_out_beyond_box": int(beyond),
+                         # as far past its fold's box as a held-out sample checked the
+                         # estimator: `compose.PerOutput` fades its continuation past it
+                         "held_out_reach": float(distance.max(initial=0.0))}
   return out
 
 
@@ -370,15 +374,6 @@ def fold_nearest(x: np.ndarray, parts) -> np.ndarray:
   for tr, va in parts:
     out[va] = nearest(x[va], reference(x[tr], len(x)), x[tr].min(axis=0), x[tr].max(axis=0))
   return out
-
-
-def box_distance(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-  """(N,) how far each row of `x` (N, C) lies beyond the box [lo, hi], each input in units
-  of its range (a constant input in its own units), Euclidean over the inputs."""
-  x = np.asarray(x, float)
-  span = np.where(hi > lo, hi - lo, 1.0)
-  over = np.maximum(np.maximum(lo - x, x - hi), 0.0) / span
-  return np.sqrt(np.sum(over ** 2, axis=1))
 
 
 def fold_distance(x: np.ndarray, parts) -> np.ndarray:

@@ -635,8 +635,16 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
   width = max(fitted[k].root.n_inputs for k in used)
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick,
                            np.min(counts[:, :width], axis=0), np.max(counts[:, :width], axis=0),
-                           plane=tuple(bool(on) for _, on, _, _ in chosen))
+                           plane=tuple(bool(on) for _, on, _, _ in chosen),
+                           reach=_reach(fitted))
   return Estimator(Kind.AUTO, root, info), table
+
+
+def _reach(fitted) -> Optional[float]:
+  """How far past their fold's box the held-out samples lay, the farthest (training ranges;
+  every candidate is held out on the same folds), or None without folds."""
+  reach = [r for e in fitted if (r := e.info.validation.get("held_out_reach")) is not None]
+  return max(reach) if reach else None
 
 
 OWN = " unguarded"  # the name of a candidate continued beyond the box as it extrapolates

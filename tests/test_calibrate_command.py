@@ -292,6 +292,17 @@ def _toward_centre(x, lo, hi):
   return centre + t[:, None] * (x - centre)
 
 
+def _continued(part, lin, x, est):
+  """`part` past the box as `auto` continues it (written out here, apart from
+  `calibrate.compose`): its correction to LS where the line to the box's centre leaves the
+  box, carried along LS whole up to the folds' reach and faded towards half past it."""
+  lo, hi, reach = est.info.input_lo, est.info.input_hi, est.root.reach
+  c = _toward_centre(x, lo, hi)
+  d = np.sqrt(np.sum((np.maximum(np.maximum(lo - x, x - hi), 0) / (hi - lo)) ** 2, axis=1))
+  keep = 0.5 + 0.5 * np.exp(-np.maximum(d - reach, 0) / max(reach, 0.01))
+  return lin.predict(x) + keep[:, None] * (part.predict(c) - lin.predict(c))
+
+
 def test_the_point_past_the_box_keeps_the_inputs_pattern():
   from calibrate.parts.base import toward_centre
   lo, hi = np.array([0.0, 0.0, 10.0]), np.array([2.0, 4.0, 20.0])
@@ -312,11 +323,45 @@ def test_the_point_past_the_box_keeps_the_inputs_pattern():
 def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path):
   """AUTO keeping a network: inside the training box it is the network; past the box it is
   the network where the line to the box's centre leaves the box plus the LS plane's rise
-  from there, in Python and in C."""
+  from there, in Python and in C, as far as the held-out samples lay past their folds'
+  boxes; past that the network's correction to LS fades to half: far out, the estimate is
+  the mean of the network so continued and LS alone. The file keeps that reach."""
   from calibrate import splits
   counts, forces = _data()
-  est, _ = estimators.fit_auto(counts, forces, splits.groups(len(counts), "blocks", block=100),
-                               3, candidates=("LS", "NN"), config=FAST, seed=1)
+  groups = splits.groups(len(counts), "blocks", block=100)
+  est, _ = estimators.fit_auto(counts, forces, groups, 3, candidates=("LS", "NN"),
+                               config=FAST, seed=1)
+  reach = 0.0  # the farthest a held-out sample lay past its training fold's box
+  for tr, va in splits.folds(groups, 3, 1):
+    lo, hi = counts[tr].min(axis=0), counts[tr].max(axis=0)
+    over = np.maximum(np.maximum(lo - counts[va], counts[va] - hi), 0) / (hi - lo)
+    reach = max(reach, np.sqrt((over ** 2).sum(axis=1)).max())
+  assert est.root.reach == pytest.approx(reach, rel=1e-12) and reach > 0
+  whole = estimators.Estimator(est.kind, dataclasses.replace(est.root, reach=None), est.info)
+  lo, hi = est.info.input_lo, est.info.input_hi
+  near = np.tile((lo + hi) / 2, (3, 1))
+  near[:, 0] = hi[0] + np.array([0.2, 0.5, 0.9]) * reach * (hi[0] - lo[0])
+  far = np.tile((lo + hi) / 2, (3, 1))
+  far[:, 0] = hi[0] + np.array([40.0, 60.0, 80.0]) * max(reach, 0.01) * (hi[0] - lo[0])
+  with warnings.catch_warnings():
+    warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
+    np.testing.assert_array_equal(est.predict(near), whole.predict(near))
+    ls_alone = est.parts[est.guard()].predict(far)
+    halfway = (whole.predict(far) + ls_alone) / 2
+    for j, k in enumerate(est.pick):
+      if not est.parts[k].kind is estimators.Kind.LS:
+        np.testing.assert_allclose(est.predict(far)[:, j], halfway[:, j], rtol=1e-9)
+        assert np.all(np.abs(whole.predict(far)[:, j] - ls_alone[:, j]) > 1e-6)
+  est.save(tmp_path / "auto.npz")
+  assert estimators.Estimator.load(tmp_path / "auto.npz").root.reach == est.root.reach
+  with np.load(tmp_path / "auto.npz") as z:  # a reach no fit gives is refused by name
+    arrays = dict(z)
+  arrays["meta"] = np.array(str(arrays["meta"]).replace(f'"reach": {est.root.reach!r}',
+                                                         '"reach": -1.0'))
+  assert '"reach": -1.0' in str(arrays["meta"])
+  np.savez(tmp_path / "bad.npz", **arrays)
+  with pytest.raises(errors.DataError, match=r"reach .* -1.0: allowed a number >= 0"):
+    estimators.Estimator.load(tmp_path / "bad.npz")
   nets = [k for k, p in enumerate(est.parts) if p.kind is estimators.Kind.NN]
   ls = est.guard()
   assert nets and ls is not None and est.parts[ls].kind is estimators.Kind.LS
@@ -326,9 +371,8 @@ def test_auto_continues_its_networks_along_the_ls_plane_beyond_the_box(tmp_path)
   with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
     got_in, got = est.predict(inside), est.predict(beyond)
-    box = _toward_centre(beyond, est.info.input_lo, est.info.input_hi)
     part, lin = est.parts[nets[0]], est.parts[ls]
-    want = part.predict(box) + lin.predict(beyond) - lin.predict(box)
+    want = _continued(part, lin, beyond, est)
   for j, k in enumerate(est.pick):
     if k == nets[0]:
       np.testing.assert_allclose(got_in[:, j], part.predict(inside)[:, j])
@@ -377,10 +421,9 @@ def test_auto_keeps_each_channels_cubic_where_it_is_the_truth_and_guards_it(tmp_
   with __import__("warnings").catch_warnings():
     __import__("warnings").simplefilter("ignore", estimators.OutOfRangeWarning)
     got = est.predict(beyond)
-    box = _toward_centre(beyond, est.info.input_lo, est.info.input_hi)
     cubic, lin = est.parts[est.pick[0]], est.parts[est.guard()]
-    np.testing.assert_allclose(got, cubic.predict(box) + lin.predict(beyond)
-                               - lin.predict(box), rtol=1e-12)
+    np.testing.assert_allclose(got, _continued(cubic, lin, beyond, est), rtol=1e-10,
+                               atol=1e-12 * np.abs(got).max())
     want = est.predict(beyond.round())
   c_out = cexport.run_on_host(est, beyond.round(), cc=CC)
   assert np.max(np.abs(c_out - want) / np.abs(want).max(axis=0)) < 1e-5
@@ -413,10 +456,9 @@ def test_auto_lets_a_part_extrapolate_itself_where_that_held_out_better(tmp_path
     mixed = estimators.Estimator(est.kind, dataclasses.replace(est.root, plane=(False, True)),
                                  est.info)
     got = mixed.predict(beyond)
-    box = _toward_centre(beyond, est.info.input_lo, est.info.input_hi)
     np.testing.assert_allclose(got[:, 0], cubic.predict(beyond)[:, 0], rtol=1e-12)
-    np.testing.assert_allclose(got[:, 1], (cubic.predict(box) + lin.predict(beyond)
-                                           - lin.predict(box))[:, 1], rtol=1e-12)
+    np.testing.assert_allclose(got[:, 1], _continued(cubic, lin, beyond, est)[:, 1],
+                               rtol=1e-10, atol=1e-12 * np.abs(got[:, 1]).max())
     mixed.save(tmp_path / "mixed.npz")
     again = estimators.Estimator.load(tmp_path / "mixed.npz")
     assert again.root.plane == (False, True)

@@ -322,7 +322,12 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   out = capsys.readouterr().out
   assert "answers: how far off on a recording the fit never saw" in out
   assert "--split blocks: later time in these same recordings" in out
-  assert estimators.Estimator.load(tmp_path / "a.npz").kind is estimators.Kind.AUTO
+  est = estimators.Estimator.load(tmp_path / "a.npz")
+  assert est.kind is estimators.Kind.AUTO
+  continued, reach = est.continued()  # what is carried past the box, and how far it was checked
+  assert continued and reach > 0, (continued, reach)  # a network or cube kept, at this seed
+  assert f"past the training box {', '.join(continued)} carry" in out
+  assert f"({reach:.3g} training ranges), and fade to half of it beyond" in out
 
 
 # --- networks on few load states: a warning, a chosen width, a penalty ---------------------

@@ -114,6 +114,12 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
     interval_lines(info, args.level, np.abs(y).max(axis=0), units)
+    continued, reach = est.continued()
+    if continued:
+      print(f"past the training box {', '.join(continued)} carry their part's correction to "
+            f"LS along LS's plane" + ("" if reach is None else
+            f" as far as held-out samples lay past their fold's box ({reach:.3g} training "
+            f"ranges), and fade to half of it beyond: held-out data never checked it there"))
     if v.get("ls_only"):
       print(f"{est.kind.value} keeps only its LS stage on {', '.join(v['ls_only'])}: its "
             f"network did not beat the LS stage on held-out groups there")

@@ -112,6 +112,15 @@ def box_point(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, beyond: str) -> np.
   return toward_centre(x, lo, hi) if beyond == "centre" else np.clip(x, lo, hi)
 
 
+def box_distance(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+  """(N,) how far each row of `x` (N, C) lies beyond the box [lo, hi], each input in units
+  of its range (a constant input in its own units), Euclidean over the inputs."""
+  x = np.asarray(x, float)
+  span = np.where(hi > lo, hi - lo, 1.0)
+  over = np.maximum(np.maximum(lo - x, x - hi), 0.0) / span
+  return np.sqrt(np.sum(over ** 2, axis=1))
+
+
 def emit_box_point(lo: str, hi: str, src: str, dst: str, c: int, beyond: str,
                    pad: str = "    ") -> list[str]:
   """C lines setting `dst`[c] to `box_point` of `src`[c]."""
