@@ -104,7 +104,7 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
   the simplest (in the order of `candidates`) whose held-out RMSE is within one standard
   error over the folds (or `TIE`) of the lowest. A candidate that is not tame (a network, a
   cubic) is scored as `auto` predicts with it: continued along LS's plane past the training
-  box (its correction to LS fading to half past the held-out samples' reach, `compose.
+  box (its correction to LS fading out past the held-out samples' reach, `compose.
   PerOutput`), and again, named "<name> unguarded", as it extrapolates itself, which is kept only
   where the held-out samples beyond their fold's box say it is the better (`methods.
   _continuations`). `candidates`: names of

@@ -118,7 +118,7 @@ class Estimator:
   def continued(self) -> tuple[list[str], Optional[float]]:
     """AUTO: (the outputs whose part is continued along the LS plane past the training box,
     how far past it the held-out samples checked that, in training ranges, past which the
-    part's correction fades to half: `compose.PerOutput`; None for files written before)."""
+    part's correction fades out: `compose.PerOutput`; None for files written before)."""
     s = self._stage
     if not isinstance(s, compose.PerOutput) or self.info is None:
       return [], None

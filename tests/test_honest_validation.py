@@ -327,7 +327,7 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   continued, reach = est.continued()  # what is carried past the box, and how far it was checked
   assert continued and reach > 0, (continued, reach)  # a network or cube kept, at this seed
   assert f"past the training box {', '.join(continued)} carry" in out
-  assert f"({reach:.3g} training ranges), and fade to half of it beyond" in out
+  assert f"({reach:.3g} training ranges), fading to LS alone beyond" in out
 
 
 # --- networks on few load states: a warning, a chosen width, a penalty ---------------------

@@ -119,7 +119,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
       print(f"past the training box {', '.join(continued)} carry their part's correction to "
             f"LS along LS's plane" + ("" if reach is None else
             f" as far as held-out samples lay past their fold's box ({reach:.3g} training "
-            f"ranges), and fade to half of it beyond: held-out data never checked it there"))
+            f"ranges), fading to LS alone beyond: held-out data never checked it there"))
     if v.get("ls_only"):
       print(f"{est.kind.value} keeps only its LS stage on {', '.join(v['ls_only'])}: its "
             f"network did not beat the LS stage on held-out groups there")
