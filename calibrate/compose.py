@@ -329,6 +329,9 @@ class PerOutput(Part):
                                            "plane", "BOX_"))
       if self.reach is not None:
         body += self._emit_fade(lo, hi, c)
+        # the distance: a subtraction, a division and a multiply-add per input; sqrtf and,
+        # past the reach, expm1f, each costed as a tanhf
+        em.costs(macs=3 * c, tanh=2)
     for k, part in enumerate(self.parts):
       if k in raw:
         body += emit_estimate(part, em, part.label, c, a, f"part[{k}]", f"P{k}_")
