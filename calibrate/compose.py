@@ -24,8 +24,7 @@ import numpy as np
 
 from calibrate.cexport.emitter import literal
 from calibrate.parts.base import (Part, Stream, box_distance, box_point, check_shapes,
-                                  emit_box_point,
-                                  read_beyond)
+                                  emit_box_point, read_beyond)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -210,7 +209,7 @@ class PerOutput(Part):
   channel's cube's Fz 1.61, 1.38, 1.19. The cube's correction did hold on the footpad's
   shear: Fy 0.65-0.72x the best baseline carried whole, 0.89-0.95x faded out, the price of
   never trusting what no held-out sample checked. `reach` None: carried whole (files
-  written   before 2026-11-29)."""
+  written before 2026-11-29)."""
   parts: tuple
   pick: tuple
   lo: Optional[np.ndarray] = None
@@ -338,11 +337,12 @@ class PerOutput(Part):
       if k in held:
         body += self._at_box(emit_estimate(part, em, part.label, c, a, where[k],
                                            f"H{k}_" if k in both else f"P{k}_"))
-    fade = lambda k, j: f" - fade * ({where[k]}[{j}] - plane[{j}])" \
-        if self.reach is not None else ""
     for j, k in enumerate(self.pick):
-      body.append(f"  out[{j}] = {where[k]}[{j}] + part[{ls}][{j}] - plane[{j}]{fade(k, j)};"
-                  if guarded[j] else f"  out[{j}] = part[{k}][{j}];")
+      if not guarded[j]:
+        body.append(f"  out[{j}] = part[{k}][{j}];")
+        continue
+      fade = "" if self.reach is None else f" - fade * ({where[k]}[{j}] - plane[{j}])"
+      body.append(f"  out[{j}] = {where[k]}[{j}] + part[{ls}][{j}] - plane[{j}]{fade};")
     return body
 
   def _emit_fade(self, lo: str, hi: str, c: int) -> list[str]:
