@@ -68,7 +68,10 @@ def table(tmp_path_factory):
       **presets.get("paper").overrides(), "z_levels": TREND_Z_LEVELS})
   ctx = Context(quick=True, seed=0, out=tmp_path_factory.mktemp("table"), settings=scene,
                 show_progress=False)
-  data = footpad_table.run_table(ctx, ("asterisk",), seeds=TREND_SEEDS, unseen=False).data
+  # not the blocks split's networks again: no test here reads them (the heavy tests run
+  # asterisk_path whole, blocks included: tests/test_registry.py)
+  data = footpad_table.run_table(ctx, ("asterisk",), seeds=TREND_SEEDS, unseen=False,
+                                 blocks=False).data
   return {**data["results"], "out": ctx.out, "test_draws": data["test_draws"],
           "comparison": data["comparison"], "first_seed": data["per_seed"][0]}
 

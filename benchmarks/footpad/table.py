@@ -36,19 +36,21 @@ _STOPS = {"MAX_EPOCHS": "at the epoch cap", "VALIDATION": "by the validation sto
 
 
 def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None,
-              unseen: bool = True) -> dict:
+              unseen: bool = True, blocks: bool = True) -> dict:
   """Fits LS, LSANN and NN-only as the paper does, the networks on `nn_paths`, and prints
   Table I against the paper's (and, once, the share of test samples outside each
   estimator's training range, in place of a warning per prediction); with `unseen`, also
-  the generalisation block on shapes none of the paper's paths has."""
+  the generalisation block on shapes none of the paper's paths has; with `blocks`, the
+  networks of the first `BLOCK_SEEDS` seeds again under a blocks validation split."""
   import warnings
   from benchmarks import outputs
   with warnings.catch_warnings():
     outputs.quiet_out_of_range()
-    return _run_table(ctx, nn_paths, seeds, unseen)
+    return _run_table(ctx, nn_paths, seeds, unseen, blocks)
 
 
-def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None, unseen: bool = True):
+def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None, unseen: bool = True,
+               with_blocks: bool = True):
   from benchmarks import outputs
   from calibrate import estimators
   from sim.footpad import protocol
@@ -78,7 +80,8 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None, unseen: bool =
   _predictions_and_figures(ctx, recs["train"], test, on_test)
   draws = _test_draws(ctx, recs["test"], fitted)
   general = _generalisation(ctx, fitted) if unseen else {}
-  blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed)
+  blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed) \
+      if with_blocks else {}
   data = {"results": results, "LS_train": ls_train, "per_seed": per_seed, "test_draws": draws,
           "validation_blocks": blocks, "generalisation": general,
           "comparison": comparison, "seeds": child,
