@@ -24,7 +24,7 @@ import numpy as np
 
 from calibrate.cexport.emitter import literal
 from calibrate.parts.base import (Part, Stream, box_distance, box_point, check_shapes,
-                                  emit_box_point, read_beyond)
+                                  emit_box_distance, emit_box_point, read_beyond)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -172,12 +172,10 @@ REACH_FLOOR = 0.01  # training ranges: the fade's length where no held-out sampl
 # fold's box (reach 0), so that the estimate stays continuous at the box's faces
 
 
-def faded(distance: np.ndarray, reach: Optional[float]) -> np.ndarray:
+def faded(distance: np.ndarray, reach: float) -> np.ndarray:
   """(N,) the share of the correction part(c) - LS(c) that `PerOutput` drops at each
   `distance` (N,) past the training box (training ranges): none up to `reach`, past it
-  1 - exp(-(d - reach) / max(reach, `REACH_FLOOR`)); none at all where `reach` is None."""
-  if reach is None:
-    return np.zeros_like(distance)
+  1 - exp(-(d - reach) / max(reach, `REACH_FLOOR`))."""
   over = (distance - reach) / max(reach, REACH_FLOOR)
   return np.where(over > 0, -np.expm1(-np.maximum(over, 0.0)), 0.0)
 
@@ -262,7 +260,8 @@ class PerOutput(Part):
       inside = box_point(x, self.lo, self.hi, self.beyond)
       at_c = self.parts[ls].mean_spread(inside)[0]
       plane = self.parts[ls].mean_spread(x)[0] - at_c
-      fade = faded(box_distance(x, self.lo, self.hi), self.reach)
+      fade = 0.0 if self.reach is None else faded(box_distance(x, self.lo, self.hi),
+                                                  self.reach)
       rows = np.flatnonzero(guarded)
       at_box = {k: self.parts[k].mean_spread(inside) for k in {self.pick[j] for j in rows}}
       for j in rows:
@@ -348,17 +347,9 @@ class PerOutput(Part):
   def _emit_fade(self, lo: str, hi: str, c: int) -> list[str]:
     """C lines setting float `fade` to `faded` of x's distance past the box."""
     scale = max(self.reach, REACH_FLOOR)
-    return ["  float fade = 0.0f;",
-            "  {",
-            "    float d2 = 0.0f;",
-            f"    for (int i = 0; i < {c}; ++i) {{",
-            f"      float span = {hi}[i] > {lo}[i] ? {hi}[i] - {lo}[i] : 1.0f;",
-            f"      float o = {lo}[i] - x[i] > x[i] - {hi}[i] ? {lo}[i] - x[i] : x[i] - {hi}[i];",
-            "      if (o > 0.0f) d2 += (o / span) * (o / span);",
-            "    }",
-            f"    float over = (sqrtf(d2) - {literal(self.reach)}) / {literal(scale)};",
-            "    if (over > 0.0f) fade = -expm1f(-over);",
-            "  }"]
+    return [*emit_box_distance(lo, hi, "x", "past", c),
+            f"  float over = (past - {literal(self.reach)}) / {literal(scale)};",
+            "  float fade = over > 0.0f ? -expm1f(-over) : 0.0f;"]
 
   @staticmethod
   def _at_box(lines: list[str]) -> list[str]:

@@ -50,7 +50,7 @@ def run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None = None,
 
 
 def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None, unseen: bool = True,
-               with_blocks: bool = True):
+               blocks: bool = True):
   from benchmarks import outputs
   from calibrate import estimators
   from sim.footpad import protocol
@@ -80,10 +80,10 @@ def _run_table(ctx, nn_paths: tuple[str, ...], seeds: int | None, unseen: bool =
   _predictions_and_figures(ctx, recs["train"], test, on_test)
   draws = _test_draws(ctx, recs["test"], fitted)
   general = _generalisation(ctx, fitted) if unseen else {}
-  blocks = _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS], per_seed) \
-      if with_blocks else {}
   data = {"results": results, "LS_train": ls_train, "per_seed": per_seed, "test_draws": draws,
-          "validation_blocks": blocks, "generalisation": general,
+          "validation_blocks": _blocks_split(ctx, ls, nn_train, test, child[:BLOCK_SEEDS],
+                                             per_seed) if blocks else {},
+          "generalisation": general,
           "comparison": comparison, "seeds": child,
           "paper": {"table1": PAPER_TABLE1, "LS_train_nrmse_pct": PAPER_LS_TRAIN_NRMSE,
                     "training_minutes": PAPER_MINUTES, "iteration_ratio": paper.TIME_RATIO},

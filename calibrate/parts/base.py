@@ -121,6 +121,23 @@ def box_distance(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
   return np.sqrt(np.sum(over ** 2, axis=1))
 
 
+def emit_box_distance(lo: str, hi: str, src: str, dst: str, c: int, pad: str = "  "
+                      ) -> list[str]:
+  """C lines setting float `dst` to `box_distance` of float `src`[c], the box in the arrays
+  named `lo` and `hi`: one block for the sum, so its locals stay its own."""
+  return [f"{pad}float {dst};",
+          f"{pad}{{",
+          f"{pad}  float d2 = 0.0f;",
+          f"{pad}  for (int i = 0; i < {c}; ++i) {{",
+          f"{pad}    float span = {hi}[i] > {lo}[i] ? {hi}[i] - {lo}[i] : 1.0f;",
+          f"{pad}    float o = {lo}[i] - {src}[i] > {src}[i] - {hi}[i] ? {lo}[i] - {src}[i] : "
+          f"{src}[i] - {hi}[i];",
+          f"{pad}    if (o > 0.0f) d2 += (o / span) * (o / span);",
+          f"{pad}  }}",
+          f"{pad}  {dst} = sqrtf(d2);",
+          f"{pad}}}"]
+
+
 def emit_box_point(lo: str, hi: str, src: str, dst: str, c: int, beyond: str,
                    pad: str = "    ") -> list[str]:
   """C lines setting `dst`[c] to `box_point` of `src`[c]."""
