@@ -1,5 +1,7 @@
 """The Levenberg-Marquardt trainer against independent references."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -107,3 +109,26 @@ def test_float64_stays_float64_and_bad_input_is_named():
     mlp.train(bad, y, x, y)
   with pytest.raises(ValueError, match="cannot fit"):
     mlp.train(x[:5], y[:5], x, y, mlp.LMConfig(hidden=10))
+
+
+def test_fits_of_nearby_sizes_share_one_compiled_epoch():
+  """A cross-validation's folds differ in size by a few samples: their fits run one compiled
+  epoch, on data padded with masked rows, and the mask leaves the padding out: the normal
+  equations of the padded set are those of its samples alone."""
+  x, y, theta = _teacher(n=900)
+  cfg = mlp.LMConfig(hidden=3, epochs=4, max_fail=10)
+  for n in (500, 470, 430):  # one size class (512 rows)
+    mlp.train(x[:n], y[:n], x[n:n + 100], y[n:n + 100], cfg, seed=0)
+  _, step, _ = mlp._kernel(dataclasses.replace(cfg, epochs=40))  # stopping rules aside
+  assert step._cache_size() == 1
+  a = mlp.train(x[:500], y[:500], x[500:600], y[500:600], cfg, seed=2)
+  mlp.train(x[:500], y[:500], x[500:700], y[500:700], cfg, seed=2)  # another size class
+  assert step._cache_size() == 2
+  again = mlp.train(x[:500], y[:500], x[500:600], y[500:600], cfg, seed=2)
+  np.testing.assert_array_equal(a.net.w1, again.net.w1)
+  (xp, mask), (yp, _) = mlp._padded(x[:430]), mlp._padded(y[:430])
+  assert xp.shape[0] == 512 and float(mask.sum()) == 430
+  padded = mlp.normal_equations(theta, xp, yp, 4, mask)
+  alone = mlp.normal_equations(theta, jnp.asarray(x[:430]), jnp.asarray(y[:430]), 4)
+  for p, q in zip(padded, alone):
+    np.testing.assert_allclose(p, q, rtol=1e-12, atol=1e-12 * float(jnp.max(jnp.abs(q))))
