@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from util import files
+from util import blas, files
 
 
 cache_dir = files.cache_dir
@@ -45,8 +45,10 @@ def cached_array(kind: str, key: dict[str, Any], compute: Callable[[], np.ndarra
 
   The file holds the array and a SHA-256 of its bytes, dtype and shape: a damaged or edited
   file is reported (a warning naming it), deleted and computed again."""
-  # the file format enters the key: files of an older format are simply not found
-  path = cache_dir() / kind / (content_key({"key": key, "format": 2}) + ".npz")
+  # the file format and the BLAS kernels enter the key: files of an older format, or
+  # computed on other kernels (other last bits), are simply not found
+  path = cache_dir() / kind / (content_key({"key": key, "format": 2,
+                                            "blas": blas.architecture()}) + ".npz")
   if path.exists():
     try:
       with np.load(path) as z:

@@ -179,6 +179,29 @@ def test_a_damaged_cached_array_is_reported_and_computed_again(tmp_path, monkeyp
   assert len(calls) == 2 and np.array_equal(again, first)
 
 
+def test_an_array_cached_on_other_blas_kernels_is_computed_again(tmp_path, monkeypatch):
+  """Other BLAS kernels give other last bits (`util.blas.architecture`): an array cached on
+  them is not read on these, nor is a footpad recording; on the same kernels it is."""
+  from sim.footpad import scene as footpad
+  from util import blas
+  monkeypatch.setenv("TESTBENCH_CACHE", str(tmp_path))
+  calls = []
+
+  def compute():
+    calls.append(1)
+    return np.full(3, float(len(calls)))
+
+  here = blas.architecture()
+  assert here  # this machine's kernels are known
+  key = footpad.cache_key(footpad.FootpadScene())
+  cache.cached_array("kernels", {"k": 1}, compute)
+  monkeypatch.setattr(blas, "architecture", lambda: "openblas:SkylakeX")
+  assert cache.cached_array("kernels", {"k": 1}, compute)[0] == 2.0
+  assert footpad.cache_key(footpad.FootpadScene()) != key
+  monkeypatch.setattr(blas, "architecture", lambda: here)
+  assert cache.cached_array("kernels", {"k": 1}, compute)[0] == 1.0 and len(calls) == 2
+
+
 @pytest.mark.parametrize("damage", ["truncate", "flip", "edit result"])
 def test_a_damaged_finished_point_is_run_again(tmp_path, damage):
   store = executors.PointStore(tmp_path)

@@ -26,7 +26,7 @@ import numpy as np
 
 from models import footpad as model_lib
 
-from util import errors, fields
+from util import blas, errors, fields
 from util.errors import SimulationError
 from util.fields import setting
 from sim import physics, recording
@@ -558,9 +558,11 @@ def versions() -> dict[str, str]:
   # the path at its depth (not its press down); 7 = the square path once (not three times);
   # 8 = the Maxwell arms as activation states (`model_lib.maxwell_arm`), not bodies; 9 = the
   # plate's F/T as the net contact wrench (`model_lib.plate_wrench`), equal to 1e-9; 10 = the
-  # arms integrated by the compiled callback where there is one ("maxwell_arms").
+  # arms integrated by the compiled callback where there is one ("maxwell_arms"). The BLAS
+  # kernels set the die kernel's last bits, z_press's depth and so every noise stream.
   return {"mujoco": mujoco.__version__, "numpy": np.__version__, "recording_format": "2",
-          "physics": "10", "maxwell_arms": model_lib.arm_dynamics()[0]}
+          "physics": "10", "maxwell_arms": model_lib.arm_dynamics()[0],
+          "blas": blas.architecture()}
 
 
 def cache_key(scene: FootpadScene) -> dict:
