@@ -111,6 +111,7 @@ def test_float64_stays_float64_and_bad_input_is_named():
     mlp.train(x[:5], y[:5], x, y, mlp.LMConfig(hidden=10))
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_fits_of_nearby_sizes_share_one_compiled_epoch():
   """A cross-validation's folds differ in size by a few samples: their fits run one compiled
   epoch, on data padded with masked rows, and the mask leaves the padding out: the normal

@@ -202,7 +202,8 @@ def test_the_tare_carries_through_a_session_and_filters_restart_per_segment():
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("kind", ["LS", "LSANN", "GRU", "LS in sessions"])
+@pytest.mark.parametrize("kind", ["LS", "LSANN", pytest.param("GRU", marks=pytest.mark.slow),
+                                  "LS in sessions"])
 def test_the_c_export_carries_the_front_end_and_the_recurrent_state(tmp_path, kind):
   """Tare, high-passes, differences and the GRU's state, streamed sample by sample in C
   (float32) with a reset at each recording: equal to `predict` over whole recordings within
@@ -509,6 +510,7 @@ def test_a_contact_flag_column_says_where_the_drift_is_re_zeroed(tmp_path, capsy
   assert "give one of the two ways" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_a_recurrent_network_that_never_beats_its_start_adds_nothing():
   """A sensor LS maps exactly (noise on the reference only): no Adam step lowers the
   held-out error below the start's, the network's output is set to exactly zero, and GRU
