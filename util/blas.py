@@ -11,6 +11,7 @@ only before NumPy is first imported in the process (OpenBLAS reads it when it lo
 
 from __future__ import annotations
 
+import functools
 import os
 import platform
 
@@ -20,6 +21,7 @@ def pin() -> None:
     os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
 
 
+@functools.lru_cache(maxsize=1)  # the BLAS a process loaded stays: asked once
 def architecture() -> str:
   """The BLAS kernels NumPy runs on, as OpenBLAS names them ("Haswell", "SkylakeX"; the
   library's name where it reports none): a cached result computed by them carries it in its

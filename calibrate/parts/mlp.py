@@ -477,8 +477,11 @@ def _padded(a: np.ndarray) -> tuple[jnp.ndarray, jnp.ndarray]:
 
 
 def _kernel(config: LMConfig):
-  """`_compiled` for `config`, whatever its stopping rules (the host loop's, not the step's)."""
-  return _compiled(dataclasses.replace(config, epochs=1, max_fail=1, min_grad=1.0, goal=0.0))
+  """`_compiled` for `config`, whatever its stopping rules (the host loop's, not the step's)
+  and, on the own backend, its start mu (the state `train` passes in, not the step's)."""
+  return _compiled(dataclasses.replace(
+      config, epochs=1, max_fail=1, min_grad=1.0, goal=0.0,
+      mu=LMConfig.mu if config.backend == "own" else config.mu))
 
 
 @functools.lru_cache(maxsize=64)
@@ -497,24 +500,22 @@ def _compiled(config: LMConfig):
   else:
     solver, inner = _jaxopt_epoch_fn(h, config)
 
-  def val_mse(theta, data):
-    xj, yj, mask, xvj, yvs, vmask, half, count, vcount = data
+  def mses(theta, sse, data):
+    """[train MSE from the scaled squared errors `sse` (O,), validation MSE at theta]."""
+    xj, yj, _, xvj, yvs, vmask, half, count, vcount = data
     err = (_forward(theta, xvj, h, xj.shape[1], yj.shape[1]) - yvs) * half * vmask[:, None]
-    return jnp.sum(err ** 2) / vcount
+    return [jnp.sum(sse * half**2) / count, jnp.sum(err ** 2) / vcount]
 
   @jax.jit
   def step(theta, state, data):
-    xj, yj, mask, _, _, _, half, count, _ = data
+    xj, yj, mask, count = data[0], data[1], data[2], data[7]
     theta, state, sse, grad = inner(theta, state, xj, yj, mask, count)
     mu = state[0] if solver is None else jnp.asarray(0.0)
-    return theta, state, jnp.stack([jnp.sum(sse * half**2) / count, val_mse(theta, data), grad,
-                                    jnp.sum(sse) / count, mu])
+    return theta, state, jnp.stack([*mses(theta, sse, data), grad, jnp.sum(sse) / count, mu])
 
   @jax.jit
   def scores(theta, data):
-    xj, yj, mask, _, _, _, half, count, _ = data
-    sse = _sse_per_output(theta, xj, yj, h, mask)
-    return jnp.stack([jnp.sum(sse * half**2) / count, val_mse(theta, data)])
+    return jnp.stack(mses(theta, _sse_per_output(theta, data[0], data[1], h, data[2]), data))
 
   return solver, step, scores
 
