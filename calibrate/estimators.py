@@ -97,7 +97,8 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       deep=deep, layers=layers)
 
 
-def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, folds: int = 5,
+def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups,
+             folds: Optional[int] = None,
              candidates: Optional[Sequence] = None, progress=None, **kwargs
              ) -> tuple[Estimator, dict]:
   """Every candidate fitted and cross-validated on the same grouped folds; for each output,
@@ -114,18 +115,28 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups, fold
   Returns (the AUTO estimator, {method: {"cv_rmse": [per output], "seconds": fit time,
   "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...);
   `ensemble` N > 1 adds each network's mean of N networks (named e.g. "NNx5") right after
-  the single network, which reuses the width or layers the single one chose."""
-  return methods.fit_auto(counts, forces, groups, folds, candidates, progress, **kwargs)
+  the single network, which reuses the width or layers the single one chose. `folds` None:
+  `splits.fold_count` of the groups (10 at 20 whole recordings or more, else 5)."""
+  return methods.fit_auto(counts, forces, groups, _folds(folds, groups), candidates,
+                          progress, **kwargs)
+
+
+def _folds(folds: Optional[int], groups: Optional[splits.Groups]) -> int:
+  """`folds`, or None: `splits.fold_count` of `groups`."""
+  if folds is not None or groups is None:
+    return splits.FOLDS if folds is None else folds
+  return splits.fold_count(groups)
 
 
 def fit_auto_temporal(counts: np.ndarray, forces: np.ndarray, dt: float,
-                      groups: splits.Groups, folds: int = 5, **kwargs
+                      groups: splits.Groups, folds: Optional[int] = None, **kwargs
                       ) -> tuple[Estimator, dict]:
   """`fit_auto` with memory among the candidates: LS and POLY behind a memory front end
   (`calibrate.temporal_fit.fit_auto_temporal`; `segments`, `taus`, `tare`, `differences`
   as `fit_temporal` takes them), kept per output only where their held-out gain beats every
-  static candidate's by more than a standard error."""
-  return temporal_fit.fit_auto_temporal(counts, forces, dt, groups, folds, **kwargs)
+  static candidate's by more than a standard error; `folds` as `fit_auto` takes them."""
+  return temporal_fit.fit_auto_temporal(counts, forces, dt, groups, _folds(folds, groups),
+                                        **kwargs)
 
 
 def fit_temporal(kind: Kind, counts: np.ndarray, forces: np.ndarray, dt: float, *,

@@ -219,6 +219,50 @@ def test_the_command_fits_several_recordings_and_reports_coverage(tmp_path, caps
   assert all("truth_outside_training_pct" in got[ax] for ax in ("Fx", "Fy", "Fz"))
 
 
+def _recording_files(folder, count, n, name="run{}.csv", seed=9):
+  """`count` CSV files of `_recordings`' sensor, `n` rows each, with a time column."""
+  rng = np.random.default_rng(seed)
+  names = ["time", "s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
+  for k in range(count):
+    x, y, _ = _recordings(1, rng, n=n)
+    csvfile.write(folder / name.format(k), names,
+                  np.column_stack([np.arange(len(x)) * 0.01, x, y]))
+
+
+@pytest.mark.parametrize("how, count, want", [("recordings", 19, 5), ("recordings", 20, 10),
+                                             ("blocks", 50, 5)])
+def test_twenty_whole_recordings_or_more_get_ten_folds_blocks_five(how, count, want):
+  g = splits.Groups(np.repeat(np.arange(count), 3), how, 3 if how == "blocks" else 0)
+  assert splits.fold_count(g) == want
+
+
+def test_the_default_folds_are_ten_over_many_recordings_and_the_same_as_asked(tmp_path,
+                                                                            capsys):
+  """`--folds auto` (the default) over 24 recordings holds out ten folds, the very fit
+  `--folds 10` gives; over 6 it holds out five; a word that is not a count is refused."""
+  _recording_files(tmp_path, 24, 60, "run{:02d}.csv")
+
+  def fit(pattern, out, *more):
+    return cli.main(["fit", "--csv", str(tmp_path / pattern), "--inputs", "s*", "--targets",
+                     "Fx,Fy,Fz", "--method", "poly", "--no-progress",
+                     "--out", str(tmp_path / out), *more])
+  assert fit("run*.csv", "auto.npz") == 0
+  assert "(10-fold grouped cross-validation)" in capsys.readouterr().out
+  assert fit("run*.csv", "ten.npz", "--folds", "10") == 0
+  capsys.readouterr()
+  a, b = (estimators.Estimator.load(tmp_path / f) for f in ("auto.npz", "ten.npz"))
+  assert a.info.validation["folds"] == 10 and a.info.settings == b.info.settings
+  x = csvfile.read(tmp_path / "run03.csv").data[:, 1:5]
+  np.testing.assert_array_equal(a.predict(x), b.predict(x))
+  np.testing.assert_array_equal(a.info.half_width(0.95), b.info.half_width(0.95))
+  assert fit("run0[0-5].csv", "six.npz") == 0
+  assert "(5-fold grouped cross-validation)" in capsys.readouterr().out
+  with pytest.raises(SystemExit) as stop:  # argparse's own exit: usage, then the error
+    fit("run*.csv", "bad.npz", "--folds", "many")
+  assert stop.value.code == 2 and "--folds: 'many' is not a number of folds or 'auto'" in \
+      capsys.readouterr().err
+
+
 def test_recordings_with_different_columns_are_refused(tmp_path, capsys):
   csvfile.write(tmp_path / "a.csv", ["s1", "Fx"], np.ones((5, 2)))
   csvfile.write(tmp_path / "b.csv", ["s2", "Fx"], np.ones((5, 2)))
@@ -301,12 +345,7 @@ def test_auto_weighs_each_network_alone_and_as_the_mean_of_an_ensemble():
 
 @pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path, capsys):
-  rng = np.random.default_rng(9)
-  names = ["time", "s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
-  for k in range(4):
-    x, y, _ = _recordings(1, rng, n=150)
-    csvfile.write(tmp_path / f"run{k}.csv", names,
-                  np.column_stack([np.arange(len(x)) * 0.01, x, y]))
+  _recording_files(tmp_path, 4, 150)
   data = ["--csv", str(tmp_path / "run*.csv"), "--inputs", "s*", "--targets", "Fx,Fy,Fz",
           "--epochs", "10", "--hidden", "4", "--layers", "16", "--folds", "2", "--no-progress"]
   assert cli.main(["compare", *data, "--out", str(tmp_path / "table.csv")]) == 0

@@ -71,7 +71,9 @@ class RealRecordings:
     rigs: the datasets: the footpad's episodes, the shell's calibration in 5 sessions, the
       shell at few static load states, and a synthetic magnetic fingertip logged with a
       real log's pathologies (`benchmarks.calibrators.fingertip`).
-    folds: grouped cross-validation folds over the training recordings.
+    folds: grouped cross-validation folds over the training recordings, for this project's
+      methods and the baselines alike (0: as `python -m calibrate fit` chooses by default,
+      `calibrate.splits.fold_count`: 10 at 20 recordings or more, else 5).
     level: the interval's level.
     epochs: epoch cap of the networks.
     ensemble: networks averaged in the mean `auto` weighs beside each single network
@@ -102,7 +104,7 @@ class RealRecordings:
   """
   rigs: tuple[Literal["footpad", "shell", "shell_static", "fingertip"], ...] = (
       "footpad", "shell", "shell_static", "fingertip")
-  folds: int = setting(5, "[2, 20]")
+  folds: int = setting(0, "[0, 20]")
   level: float = setting(0.95, "[0.5, 0.999]")
   epochs: int = setting(300, "[1, 10000]")
   ensemble: int = setting(5, "[1, 50]")
@@ -126,6 +128,7 @@ class RealRecordings:
       yield bool(given) == bool(self.data), key, \
           "column names or globs with data (--set inputs='X*' --set targets='F_*'), empty " \
           "without it", given
+    yield self.folds != 1, "folds", "0 (as calibrate fit chooses) or 2 to 20", self.folds
     yield bool(self.rigs), "rigs", "one or more of footpad, shell, shell_static, fingertip", \
         self.rigs
 
@@ -341,7 +344,8 @@ def _ours(ctx, d: Data) -> dict:
   with warnings.catch_warnings():
     warnings.simplefilter("ignore", estimators.OutOfRangeWarning)
     t0 = time.perf_counter()
-    auto, table = estimators.fit_auto(d.x, d.y, groups, s.folds, config=config, seed=ctx.seed,
+    auto, table = estimators.fit_auto(d.x, d.y, groups, _folds(ctx, d), config=config,
+                                      seed=ctx.seed,
                                       ensemble=s.ensemble, progress=ctx.progress("networks"))
     auto_s = time.perf_counter() - t0
     for name, row in list(table.items()) + [("auto", {"estimator": auto, "seconds": auto_s})]:
@@ -369,8 +373,10 @@ def _ours(ctx, d: Data) -> dict:
       if name != "auto":  # the paper's split: what its +-1.96 sd promised
         base, n = methods.split_ensemble(name)
         kind, fixed = methods.AUTO[base]
-        flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed, ensemble=n,
-                              **fixed)
+        with warnings.catch_warnings():  # auto's fit said it of the same targets, once
+          warnings.simplefilter("ignore", estimators.FewStatesWarning)
+          flat = estimators.fit(kind, d.x, d.y, config=config, seed=ctx.seed, ensemble=n,
+                                **fixed)
         r["single_split_coverage_pct"] = (100 * np.mean(
             np.abs(flat.predict(d.xt) - d.yt) <= 1.96 * flat.info.residual_sd, axis=0)).tolist()
       else:
@@ -385,6 +391,13 @@ def _ours(ctx, d: Data) -> dict:
   return out
 
 
+def _folds(ctx, d: Data) -> int:
+  """The grouped folds over `d`'s training recordings: the `folds` setting, or 0: as `python
+  -m calibrate fit` chooses (`calibrate.splits.fold_count`)."""
+  from calibrate import splits
+  return ctx.settings.folds or splits.fold_count(splits.groups(len(d.x), "recordings", d.rec))
+
+
 def _baselines(ctx, d: Data) -> dict:
   """scikit-learn's estimators as a user would set them up."""
   import warnings
@@ -394,7 +407,7 @@ def _baselines(ctx, d: Data) -> dict:
   from sklearn.neural_network import MLPRegressor
   from sklearn.pipeline import make_pipeline
   from sklearn.preprocessing import PolynomialFeatures, StandardScaler
-  folds = list(GroupKFold(n_splits=min(ctx.settings.folds, len(np.unique(d.rec)))).split(
+  folds = list(GroupKFold(n_splits=min(_folds(ctx, d), len(np.unique(d.rec)))).split(
       d.x, groups=d.rec))
   models = {
       "sklearn LinearRegression": LinearRegression(),

@@ -119,9 +119,12 @@ def training_args(p: argparse.ArgumentParser) -> None:
                       "several, else contiguous blocks as long as the inputs' "
                       "autocorrelation), recordings, blocks, or samples (single samples at "
                       "random, the LSANN paper's: flatters every method)")
-  p.add_argument("--folds", type=int, default=5,
+  p.add_argument("--folds", type=folds, default="auto",
                  help="grouped cross-validation folds for the held-out error and the "
-                      "interval (default 5; 0: none, and no interval)")
+                      "interval: a number 2 to 20, 0 (none, and no interval), or auto (the "
+                      "default): 10 where the split holds out 20 whole recordings or more "
+                      "(a few dozen load states: each fold then trains on 90 %% of them), "
+                      "else 5")
   p.add_argument("--level", type=float, default=0.95,
                  help="interval level to report (default 0.95; predict --interval takes any)")
   p.add_argument("--seed", type=int, default=0, help="one seed for every random draw")
@@ -174,14 +177,21 @@ def history(text: str):
   return taus
 
 
-def hidden(text: str):
-  """--hidden: a positive integer or 'auto'."""
-  if text.strip().lower() == "auto":
-    return "auto"
-  try:
-    return int(text)
-  except ValueError:
-    raise argparse.ArgumentTypeError(f"{text!r} is not a number of units or 'auto'") from None
+def _auto_or_count(what: str):
+  """An argparse type: 'auto', or a whole number (of `what`)."""
+  def parse(text: str):
+    if text.strip().lower() == "auto":
+      return "auto"
+    try:
+      return int(text)
+    except ValueError:
+      raise argparse.ArgumentTypeError(f"{text!r} is not a number of {what} or 'auto'") \
+          from None
+  return parse
+
+
+folds = _auto_or_count("folds")  # --folds: `splits.fold_count` of the groups where 'auto'
+hidden = _auto_or_count("units")  # --hidden: 'auto' chooses among `WIDTHS`
 
 
 def net_config(args):
@@ -256,8 +266,9 @@ def preparation(args):
 
 def training_data(args):
   """(table, x, y, groups, names) of `fit` and `compare`, every option checked first."""
-  if not 0 <= args.folds <= 20:
-    raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20")
+  if args.folds != "auto" and not 0 <= args.folds <= 20:
+    raise errors.SettingError(f"--folds {args.folds} is out of range: allowed 0 to 20, or "
+                              f"auto")
   if not 0.5 <= args.level <= 0.999:
     raise errors.SettingError(f"--level {args.level} is out of range: allowed 0.5 to 0.999")
   drift = getattr(args, "track_drift", None)
@@ -389,9 +400,15 @@ def sample_time(table, args, rows, recording) -> float:
   return float(np.median(step))
 
 
+def folds_for(args, groups) -> int:
+  """The folds `--folds` holds out of `groups`: its number, or auto's (`splits.fold_count`;
+  `compare`'s other split counts its own)."""
+  return splits_lib.fold_count(groups) if args.folds == "auto" else args.folds
+
+
 def held_out_groups(what: str, groups, args) -> None:
   """Refuses a choice made on held-out groups when there are none to hold out."""
-  if groups.count < 2 or args.folds < 2:
+  if groups.count < 2 or folds_for(args, groups) < 2:
     raise errors.SettingError(f"{what} chooses on held-out groups: give --folds 2 or more, "
                               f"and data that make two groups or more")
 
@@ -406,10 +423,11 @@ def fit_auto(args, x, y, groups, names):
                  progress=quiet if args.no_progress else progress_bar("training"), **names)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
     return estimators.fit_auto_temporal(
-        x, y, args.dt, groups, args.folds, segments=args.recording, contact=args.contact,
+        x, y, args.dt, groups, folds_for(args, groups), segments=args.recording,
+        contact=args.contact,
         taus=None if args.history == "auto" else (args.history or ()),
         tare=drift_tare(args, names["outputs"]), **options)
-  return estimators.fit_auto(x, y, groups, args.folds, **options)
+  return estimators.fit_auto(x, y, groups, folds_for(args, groups), **options)
 
 
 def with_preparation(est, args):

@@ -58,7 +58,8 @@ def run(args) -> int:
     common.held_out_groups("--hidden auto", groups, args)
   shared = dict(config=config, widths=widths, val_fraction=args.val_fraction,
                 degree=args.degree, ensemble=args.ensemble, progress=progress,
-                groups=groups, folds=args.folds if groups.count >= 2 else 0,
+                groups=groups,
+                folds=common.folds_for(args, groups) if groups.count >= 2 else 0,
                 cross=args.method == "poly" and not args.per_channel,
                 **(common.deep_options(args) if args.method == "mlp" else {}))
   kind = estimators.Kind(args.method.upper())
