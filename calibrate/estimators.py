@@ -98,7 +98,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
 
 
 def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups,
-             folds: Optional[int] = None,
+             folds: "Optional[int | str]" = None,
              candidates: Optional[Sequence] = None, progress=None, **kwargs
              ) -> tuple[Estimator, dict]:
   """Every candidate fitted and cross-validated on the same grouped folds; for each output,
@@ -115,27 +115,27 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups,
   Returns (the AUTO estimator, {method: {"cv_rmse": [per output], "seconds": fit time,
   "estimator": the candidate fitted}}). `kwargs` go to every `fit` (config, seed, names...);
   `ensemble` N > 1 adds each network's mean of N networks (named e.g. "NNx5") right after
-  the single network, which reuses the width or layers the single one chose. `folds` None:
-  `splits.fold_count` of the groups (10 at 20 whole recordings or more, else 5)."""
-  return methods.fit_auto(counts, forces, groups, _folds(folds, groups), candidates,
+  the single network, which reuses the width or layers the single one chose. `folds` None
+  or "auto": `splits.fold_count` of the groups (10 at 20 whole recordings or more, else
+  5)."""
+  return methods.fit_auto(counts, forces, groups, _folds(groups, folds), candidates,
                           progress, **kwargs)
 
 
-def _folds(folds: Optional[int], groups: Optional[splits.Groups]) -> int:
-  """`folds`, or None: `splits.fold_count` of `groups`."""
-  if folds is not None or groups is None:
-    return splits.FOLDS if folds is None else folds
-  return splits.fold_count(groups)
+def _folds(groups: Optional[splits.Groups], folds) -> Optional[int]:
+  """`splits.fold_count` (`methods.fit_auto` refuses a fit without groups itself)."""
+  return folds if groups is None else splits.fold_count(groups, folds)
 
 
 def fit_auto_temporal(counts: np.ndarray, forces: np.ndarray, dt: float,
-                      groups: splits.Groups, folds: Optional[int] = None, **kwargs
+                      groups: splits.Groups, folds: "Optional[int | str]" = None,
+                      **kwargs
                       ) -> tuple[Estimator, dict]:
   """`fit_auto` with memory among the candidates: LS and POLY behind a memory front end
   (`calibrate.temporal_fit.fit_auto_temporal`; `segments`, `taus`, `tare`, `differences`
   as `fit_temporal` takes them), kept per output only where their held-out gain beats every
   static candidate's by more than a standard error; `folds` as `fit_auto` takes them."""
-  return temporal_fit.fit_auto_temporal(counts, forces, dt, groups, _folds(folds, groups),
+  return temporal_fit.fit_auto_temporal(counts, forces, dt, groups, _folds(groups, folds),
                                         **kwargs)
 
 

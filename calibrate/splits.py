@@ -148,9 +148,10 @@ FOLDS = 5  # grouped folds by default (`fold_count`)
 MANY_FOLDS, MANY_RECORDINGS = 10, 20  # where there are this many whole recordings or more
 
 
-def fold_count(g: Groups) -> int:
-  """The folds `--folds auto` (the default) holds out: `MANY_FOLDS` where the groups are
-  `MANY_RECORDINGS` whole recordings or more, else `FOLDS`.
+def fold_count(g: Groups, asked=None) -> int:
+  """The folds to hold out of `g`: `asked` where it is a number; where it is None or "auto"
+  (`--folds auto`, the default), `MANY_FOLDS` where the groups are `MANY_RECORDINGS` whole
+  recordings or more, else `FOLDS`.
 
   K folds train each candidate on (K - 1) / K of the groups. Where each recording holds one
   load state (a weight in a pose) and the states are a few dozen, the error of a flexible
@@ -168,6 +169,8 @@ def fold_count(g: Groups) -> int:
   48 static load states, seeds 1-4 pooled, the same picks within 10 % and auto's in-box
   95 % coverage 92.8 97.4 92.3 99.1 97.0 98.0 %, then 90.5 94.3 93.8 96.4 94.8 96.2 %: each
   fold's residuals are nearer the final fit's."""
+  if asked is not None and asked != "auto":
+    return int(asked)
   return MANY_FOLDS if g.how == "recordings" and g.count >= MANY_RECORDINGS else FOLDS
 
 

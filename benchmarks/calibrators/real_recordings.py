@@ -395,7 +395,8 @@ def _folds(ctx, d: Data) -> int:
   """The grouped folds over `d`'s training recordings: the `folds` setting, or 0: as `python
   -m calibrate fit` chooses (`calibrate.splits.fold_count`)."""
   from calibrate import splits
-  return ctx.settings.folds or splits.fold_count(splits.groups(len(d.x), "recordings", d.rec))
+  groups = splits.groups(len(d.x), "recordings", d.rec)
+  return splits.fold_count(groups, ctx.settings.folds or None)
 
 
 def _baselines(ctx, d: Data) -> dict:

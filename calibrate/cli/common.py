@@ -400,15 +400,9 @@ def sample_time(table, args, rows, recording) -> float:
   return float(np.median(step))
 
 
-def folds_for(args, groups) -> int:
-  """The folds `--folds` holds out of `groups`: its number, or auto's (`splits.fold_count`;
-  `compare`'s other split counts its own)."""
-  return splits_lib.fold_count(groups) if args.folds == "auto" else args.folds
-
-
 def held_out_groups(what: str, groups, args) -> None:
   """Refuses a choice made on held-out groups when there are none to hold out."""
-  if groups.count < 2 or folds_for(args, groups) < 2:
+  if groups.count < 2 or splits_lib.fold_count(groups, args.folds) < 2:
     raise errors.SettingError(f"{what} chooses on held-out groups: give --folds 2 or more, "
                               f"and data that make two groups or more")
 
@@ -423,11 +417,11 @@ def fit_auto(args, x, y, groups, names):
                  progress=quiet if args.no_progress else progress_bar("training"), **names)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
     return estimators.fit_auto_temporal(
-        x, y, args.dt, groups, folds_for(args, groups), segments=args.recording,
+        x, y, args.dt, groups, args.folds, segments=args.recording,
         contact=args.contact,
         taus=None if args.history == "auto" else (args.history or ()),
         tare=drift_tare(args, names["outputs"]), **options)
-  return estimators.fit_auto(x, y, groups, folds_for(args, groups), **options)
+  return estimators.fit_auto(x, y, groups, args.folds, **options)
 
 
 def with_preparation(est, args):

@@ -6,6 +6,7 @@ import pathlib
 
 import numpy as np
 
+from calibrate import splits
 from calibrate.cli import common
 from calibrate.info import GROWTH_MIN
 from util import cli, errors, files
@@ -59,7 +60,7 @@ def run(args) -> int:
   shared = dict(config=config, widths=widths, val_fraction=args.val_fraction,
                 degree=args.degree, ensemble=args.ensemble, progress=progress,
                 groups=groups,
-                folds=common.folds_for(args, groups) if groups.count >= 2 else 0,
+                folds=splits.fold_count(groups, args.folds) if groups.count >= 2 else 0,
                 cross=args.method == "poly" and not args.per_channel,
                 **(common.deep_options(args) if args.method == "mlp" else {}))
   kind = estimators.Kind(args.method.upper())
