@@ -109,6 +109,24 @@ def test_real_recordings_pools_its_draws_by_their_test_samples():
   assert rr.ratios(got, ("Fx", "Fy"))[0] == "auto / best baseline, per axis: Fx: 1.50 Fy: 0.75"
 
 
+@pytest.mark.parametrize("recordings, asked, want", [(24, 0, 10), (12, 0, 5), (24, 3, 3)])
+def test_real_recordings_holds_out_the_folds_calibrate_fit_would(recordings, asked, want):
+  """folds=0 (the default) counts the folds as `python -m calibrate fit --folds auto` does;
+  a number is taken as given; the printed report says how many."""
+  import types
+  from benchmarks.calibrators import real_recordings as rr
+  from calibrate import splits
+  rec = np.repeat(np.arange(recordings), 4)
+  d = rr.Data(np.zeros((len(rec), 2)), np.zeros((len(rec), 1)), rec, np.zeros((1, 2)),
+              np.zeros((1, 1)), ("Fx",), "data", np.zeros(1, int))
+  ctx = types.SimpleNamespace(settings=rr.RealRecordings(folds=asked))
+  assert rr._folds(ctx, d) == want
+  if not asked:
+    assert want == splits.fold_count(splits.groups(len(rec), "recordings", rec), "auto")
+  assert rr._folds_line(ctx, d).startswith(
+      f"held out: {want}-fold grouped cross-validation over the {recordings} training ")
+
+
 def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
   """A coverage resting on R recordings, each nearly all inside or all outside its interval,
   is a share of R draws: resampled over the recordings its 90 % range is the binomial's

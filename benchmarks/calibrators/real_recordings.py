@@ -522,8 +522,16 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
   return out
 
 
+def _folds_line(ctx, d: Data) -> str:
+  recordings = len(np.unique(d.rec))
+  return (f"held out: {min(_folds(ctx, d), recordings)}-fold grouped cross-validation over "
+          f"the {recordings} training recordings, for auto's choice, its interval and the "
+          f"baselines' RidgeCV")
+
+
 def _print(ctx, rig: str, d: Data, results: dict) -> None:
   ctx.print(f"\n{d.what}")
+  ctx.print(_folds_line(ctx, d))
   first = next(iter(results.values()))
   far = next((r["inputs_out_of_box_pct"][0] for r in results.values()
               if "inputs_out_of_box_pct" in r), float("nan"))
