@@ -393,10 +393,11 @@ def _ours(ctx, d: Data) -> dict:
 
 def _folds(ctx, d: Data) -> int:
   """The grouped folds over `d`'s training recordings: the `folds` setting, or 0: as `python
-  -m calibrate fit` chooses (`calibrate.splits.fold_count`)."""
+  -m calibrate fit` chooses (`calibrate.splits.fold_count`); no more than the recordings, as
+  `calibrate.splits.folds` holds them out."""
   from calibrate import splits
   groups = splits.groups(len(d.x), "recordings", d.rec)
-  return splits.fold_count(groups, ctx.settings.folds or None)
+  return min(splits.fold_count(groups, ctx.settings.folds or None), groups.count)
 
 
 def _baselines(ctx, d: Data) -> dict:
@@ -408,7 +409,7 @@ def _baselines(ctx, d: Data) -> dict:
   from sklearn.neural_network import MLPRegressor
   from sklearn.pipeline import make_pipeline
   from sklearn.preprocessing import PolynomialFeatures, StandardScaler
-  folds = list(GroupKFold(n_splits=min(_folds(ctx, d), len(np.unique(d.rec)))).split(
+  folds = list(GroupKFold(n_splits=_folds(ctx, d)).split(
       d.x, groups=d.rec))
   models = {
       "sklearn LinearRegression": LinearRegression(),
@@ -523,10 +524,9 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
 
 
 def _folds_line(ctx, d: Data) -> str:
-  recordings = len(np.unique(d.rec))
-  return (f"held out: {min(_folds(ctx, d), recordings)}-fold grouped cross-validation over "
-          f"the {recordings} training recordings, for auto's choice, its interval and the "
-          f"baselines' RidgeCV")
+  return (f"held out: {_folds(ctx, d)}-fold grouped cross-validation over the "
+          f"{len(np.unique(d.rec))} training recordings, for auto's choice, its interval and "
+          f"the baselines' RidgeCV")
 
 
 def _print(ctx, rig: str, d: Data, results: dict) -> None:
