@@ -160,3 +160,29 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
   assert lo[0] < 50.0 < hi[0] and got["coverage_in_box_pct"] == [50.0]
   line = rr.coverage_spread({"auto": got}, ("Fx",))[0]
   assert "rests on 6 test recordings" in line and f"Fx: {lo[0]:.1f}-{hi[0]:.1f}" in line
+
+
+def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_offsets():
+  """`test_bias`: recordings offset by +-a about a common b give the mean b, and z = b over
+  RMS(held-out offsets) / sqrt(R); recordings drawn about zero give z = 0; the line names the
+  axes beyond Student's t's 97.5 % point at G held-out recordings (scipy: 4.30 at 2)."""
+  from benchmarks.calibrators import real_recordings as rr
+  rng = np.random.default_rng(0)
+  rec = np.repeat(np.arange(4), 50)
+  noise = rng.standard_normal((200, 2))
+  noise -= np.array([noise[rec == g].mean(axis=0) for g in range(4)])[rec]  # zero per recording
+  shift = np.array([[1.0, 3.0], [-1.0, -3.0], [1.0, 3.0], [-1.0, -3.0]])
+  offsets = np.array([[2.0, 0.5], [-2.0, -0.5]])  # RMS 2 and 0.5
+  got = rr.test_bias(noise + shift[rec] + [1.5, 0.0], rec, offsets)
+  np.testing.assert_allclose(got["test_common_bias"], [1.5, 0.0], atol=1e-12)
+  np.testing.assert_allclose(got["test_bias_z"], [1.5 / (2.0 / 2.0), 0.0], atol=1e-12)
+  assert "test_bias_z" not in rr.test_bias(noise, rec, None)  # no held-out offsets, no z
+  assert got["test_bias_dof"] == 2
+  line = rr.bias_lines({"auto": {**got, "test_bias_z": [4.5, 4.0],
+                                 "in_box_by_recording": [50, 50, 50, 50]}}, ("Fx", "Fy"))[0]
+  assert "4 test recordings" in line and "beyond 4.30 (one time in twenty by chance) on Fx:" \
+      in line
+  pooled = rr.bias_lines({}, ("Fx", "Fy"), [
+      {"auto": {"test_bias_z": [3.0, 1.0], "test_bias_dof": 5}},
+      {"auto": {"test_bias_z": [-1.0, 1.0], "test_bias_dof": 5}}])[0]
+  assert f"Fx: {np.sqrt(5):.1f} Fy: 1.0" in pooled and "(1.29 where" in pooled
