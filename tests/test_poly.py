@@ -115,3 +115,25 @@ def test_each_output_takes_its_own_degree_and_ridge():
     np.testing.assert_allclose(both.predict(x)[:, j], alone.predict(x)[:, 0], atol=1e-9)
     z = rng.uniform(-3, 3, (50, 3))  # beyond the box: each its own tangent plane
     np.testing.assert_allclose(both.predict(z)[:, j], alone.predict(z)[:, 0], atol=1e-8)
+
+
+def test_each_outputs_choice_survives_a_file_and_fit_says_it(tmp_path):
+  """An estimator of per-output degrees and ridges saved and loaded predicts the same to the
+  bit and keeps its ridges; `fit`'s line names each output's choice."""
+  from calibrate import estimators
+  from calibrate.cli import fit as fit_cli
+  rng = np.random.default_rng(5)
+  x = rng.uniform(-1, 1, (600, 3))
+  y = np.column_stack([x[:, 0] ** 2 - x[:, 1] * x[:, 2], 2 * x[:, 0] - x[:, 1]]) \
+      + 0.01 * rng.normal(size=(600, 2))
+  groups = splits.groups(600, "blocks", block=50)
+  est = estimators.fit("POLY", x, y, groups=groups, folds=4, degree=3, cross=True,
+                       outputs=["Fa", "Fb"])
+  ridge = est.root.ridge
+  est.save(tmp_path / "p.npz")
+  back = estimators.Estimator.load(tmp_path / "p.npz")
+  assert back.predict(x).tobytes() == est.predict(x).tobytes()
+  assert isinstance(ridge, tuple) and back.root.ridge == ridge
+  line = fit_cli.poly_lines(est.info.settings, est.info.outputs)
+  d = est.info.settings["degrees"]
+  assert d[0] == 2 and d[1] == 1 and f"Fa 2, " in line and f"Fb 1, " in line
