@@ -70,22 +70,16 @@ class LinearRecipe:
 
 @dataclasses.dataclass(frozen=True)
 class PolyRecipe:
-  """The polynomial with cross terms up to `degree`, ridge weight `ridge` per sample: one
-  for all outputs, or a tuple of one per output (`poly.fit_each`)."""
-  degree: int | tuple = 3
-  ridge: float | tuple = 0.0
+  """The polynomial with cross terms up to `degree`, ridge weight `ridge` per sample."""
+  degree: int = 3
+  ridge: float = 0.0
   SEEDED = False
 
   def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
     tr, va = val.split(where, seed)
-    held = self._fit(x[tr], y[tr])
+    held = poly_lib.fit(x[tr], y[tr], self.degree, self.ridge * len(tr))
     sd = np.std(y[va] - held.predict(x[va]), axis=0)
-    return Fitted((self._fit(x, y),), (sd,), (None,))
-
-  def _fit(self, x, y):
-    if isinstance(self.degree, tuple):
-      return poly_lib.fit_each(x, y, self.degree, tuple(r * len(x) for r in self.ridge))
-    return poly_lib.fit(x, y, self.degree, self.ridge * len(x))
+    return Fitted((poly_lib.fit(x, y, self.degree, self.ridge * len(x)),), (sd,), (None,))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,47 +262,35 @@ def layer_grid(recipe: "DeepRecipe", choices) -> dict:
       for layers in choices}
 
 
-def choose_poly(x, y, parts, degrees) -> tuple[tuple, tuple, dict]:
-  """(degree per output, ridge per output, table) of the polynomial with cross terms with the
-  lowest grouped cross-validated mean squared error over `parts` ((train, held-out) pairs),
-  each output its own: every degree in `degrees`, ridge weights `poly.RIDGES` x the training
-  samples, and past the largest of them while some output's held-out error still falls there
-  (ten times more each step, up to `RIDGE_STEPS` steps). The SVD of each fold is shared by
-  its ridge weights and outputs.
-
-  One degree and ridge for all outputs is one output's choice forced on the others: measured
-  (real_recordings --quick --seed 1 --set draws=4, the cross-term POLY's test NRMSE %, shared
-  -> each output's own), on the synthetic fingertip (a shared ridge of 0.01 per sample, Fx and
-  Fy's own 1e-4 to 1e-3) Fx 1.14 -> 1.04, Fy 1.35 -> 0.93; on the shell's 48 static states
-  (a shared degree of 1 on two draws) Fz 3.72 -> 3.17, Mx 5.00 -> 3.42, My 4.97 -> 4.10, Mz
-  8.77 -> 7.46; the shell within 0.06; the footpad's Z, tested at depths past the training,
-  0.91 -> 1.08."""
+def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
+  """(degree, ridge, table) of the polynomial with cross terms with the lowest grouped
+  cross-validated mean squared error over `parts` ((train, held-out) pairs): every degree in
+  `degrees`, ridge weights `poly.RIDGES` x the training samples, and past the largest of
+  them while the held-out error still falls there (ten times more each step, up to
+  `RIDGE_STEPS` steps). The SVD of each fold is shared by its ridge weights."""
   table = {}
   for deg in degrees:
     ridges = list(poly_lib.RIDGES)
-    sse = _poly_sse(x, y, parts, deg, ridges)  # (R, A)
-    while (np.argmin(sse, axis=0) == len(sse) - 1).any() and \
-        len(ridges) < len(poly_lib.RIDGES) + RIDGE_STEPS:
-      ridges.append(ridges[-1] * 10)  # an output's error still falls at the grid's edge
-      sse = np.vstack([sse, _poly_sse(x, y, parts, deg, ridges[-1:])])
+    sse = _poly_sse(x, y, parts, deg, ridges)
+    while np.argmin(sse) == len(sse) - 1 and len(ridges) < len(poly_lib.RIDGES) + RIDGE_STEPS:
+      ridges.append(ridges[-1] * 10)  # the error still falls at the grid's edge
+      sse = np.append(sse, _poly_sse(x, y, parts, deg, ridges[-1:]))
     for r, e in zip(ridges, sse):
-      table[(deg, r)] = e / len(y)
-  picks = [select.lowest({k: v[j] for k, v in table.items()}) for j in range(y.shape[1])]
-  return (tuple(d for d, _ in picks), tuple(r * len(x) for _, r in picks),
-          {f"degree {d}, ridge {r:g} x samples": v.tolist() for (d, r), v in table.items()})
+      table[(deg, r)] = float(e / len(y))
+  deg, r = select.lowest(table)
+  return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
+                           for (d, r), v in table.items()}
 
 
 RIDGE_STEPS = 6  # the ridge weights tried past the grid: up to 1e6 x the samples
 
 
 def _poly_sse(x, y, parts, deg, ridges) -> np.ndarray:
-  """(R, A) the held-out sum of squared errors at each ridge weight (x the training samples),
-  per output."""
+  """(R,) the held-out sum of squared errors at each ridge weight (x the training samples)."""
   def fold(tr, va):
     f = poly_lib.factor(x[tr], y[tr], deg, True, 1e-10)
     return [f.solve(r * len(tr)).predict(x[va]) for r in ridges]
-  residual = select.held_out(fold, y, parts, len(ridges))
-  return sum(np.sum(residual[:, va] ** 2, axis=1) for _, va in parts)
+  return select.fold_sums(select.held_out(fold, y, parts, len(ridges)), parts)
 
 
 class FewStatesWarning(UserWarning):
@@ -419,12 +401,9 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
   if kind == "POLY" and options["cross"]:
     ridge, degree = options["ridge"], options["degree"]
     if ridge is None and cv_folds:
-      degrees, lams, table = choose_poly(x, y, cv_folds, tuple(range(1, degree + 1)))
-      ridges = tuple(lam / len(x) for lam in lams)
-      settings.update(poly_cv_mse=table, cross=True, degree=max(degrees),
-                      degrees=list(degrees), ridges_per_sample=list(ridges),
-                      ridge_per_sample=max(ridges))
-      return PolyRecipe(degrees, ridges)
+      degree, lam, table = choose_poly(x, y, cv_folds, tuple(range(1, degree + 1)))
+      ridge = lam / len(x)
+      settings["poly_cv_mse"] = table
     ridge = 0.0 if ridge is None else float(ridge)
     settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
     return PolyRecipe(degree, ridge)

@@ -111,7 +111,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     if key in info.settings:
       print(grid_line(what, chosen, info.settings[key]))
   if info.settings.get("cross"):
-    print(poly_lines(info.settings, info.outputs))
+    print(poly_lines(info.settings))
   if v:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
@@ -218,27 +218,18 @@ def memory_line(mem, chosen: bool) -> str:
              if mem.detector is None else f", drift tare below {mem.tare.threshold:g} N"))
 
 
-def poly_lines(settings: dict, outputs=()) -> str:
-  """What the polynomial with cross terms is: its degree and ridge (each output's, where
-  cross-validation chose them per output), and the outputs whose ridge search ended at its
-  largest weight with the held-out error still falling."""
+def poly_lines(settings: dict) -> str:
+  """What the polynomial with cross terms is: its degree and ridge, and whether the ridge
+  search ended at its largest weight with the held-out error still falling."""
   from calibrate import methods
   from calibrate.parts import poly
-  degrees = settings.get("degrees", [settings["degree"]] * len(outputs))
-  ridges = settings.get("ridges_per_sample", [settings["ridge_per_sample"]] * len(outputs))
-  chosen = " (chosen by grouped cross-validation)" if "poly_cv_mse" in settings else ""
-  if len(set(zip(degrees, ridges))) > 1:
-    text = ("polynomial: every product up to each output's total degree, with its ridge per "
-            f"sample{chosen}: " + ", ".join(f"{n} {d}, {r:g}" for n, d, r in
-                                            zip(outputs, degrees, ridges)))
-  else:
-    text = (f"polynomial: every product of total degree <= {settings['degree']}, ridge "
-            f"{settings['ridge_per_sample']:g} per sample{chosen}")
-  text += "; linear beyond the training box"
+  text = (f"polynomial: every product of total degree <= {settings['degree']}, ridge "
+          f"{settings['ridge_per_sample']:g} per sample"
+          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in settings
+             else "") + "; linear beyond the training box")
   last = max(poly.RIDGES) * 10.0 ** methods.RIDGE_STEPS  # the search's largest weight
-  flat = [n for n, r in zip(outputs, ridges) if r >= 0.999 * last]
-  if "poly_cv_mse" in settings and (flat or settings["ridge_per_sample"] >= 0.999 * last):
+  if "poly_cv_mse" in settings and settings["ridge_per_sample"] >= 0.999 * last:
     text += (f"\n  the held-out error still fell at the largest ridge weight tried ({last:g} "
-             f"per sample){' on ' + ', '.join(flat) if flat else ''}: the polynomial adds "
-             f"little beyond the mean there; compare LS (--method auto)")
+             f"per sample): the polynomial adds little beyond the mean here; compare LS "
+             f"(--method auto)")
   return text

@@ -77,7 +77,7 @@ class PolyFit(Part):
     powers: (T, C) exponents of the monomials.
     coef: (T, A) coefficients.  bias: (A,) intercept, output units.
     ridge: the ridge weight it was fitted with (on the sum of squares, as scikit-learn's
-      `Ridge(alpha)`), or a tuple of one per output (`fit_each`).
+      `Ridge(alpha)`).
     rank: numerical rank of the centred features.
     beyond: where past the box its tangent is taken: "centre", where the line from the
       box's centre leaves the box (`base.toward_centre`); "clip", each input clipped alone
@@ -90,7 +90,7 @@ class PolyFit(Part):
   powers: np.ndarray
   coef: np.ndarray
   bias: np.ndarray
-  ridge: float | tuple
+  ridge: float
   rank: int
   beyond: str = "centre"
 
@@ -125,16 +125,14 @@ class PolyFit(Part):
     return self.coef.shape[1]
 
   def leaves(self) -> tuple[dict, dict]:
-    ridge = list(self.ridge) if isinstance(self.ridge, tuple) else self.ridge
-    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": ridge, "rank": self.rank,
+    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": self.ridge, "rank": self.rank,
                                                         "beyond": self.beyond}
 
   @classmethod
   def from_leaves(cls, spec, arrays, children=None) -> "PolyFit":
     fit = cls(*(arrays[f] for f in ("mean", "scale", "lo", "hi")),
               np.asarray(arrays["powers"]).astype(int), arrays["coef"], arrays["bias"],
-              tuple(map(float, spec["ridge"])) if isinstance(spec["ridge"], list)
-              else float(spec["ridge"]), int(spec["rank"]), read_beyond(spec))
+              float(spec["ridge"]), int(spec["rank"]), read_beyond(spec))
     c, (t, a) = len(fit.mean), np.shape(fit.coef) if np.ndim(fit.coef) == 2 else (-1, -1)
     check_shapes("polynomial", arrays, {"scale": (c,), "lo": (c,), "hi": (c,),
                                         "powers": (t, c), "bias": (a,)})
@@ -241,35 +239,6 @@ def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bo
     warnings.warn(f"polynomial features are rank-deficient ({out.rank} of {len(f.powers)}): "
                   f"{len(f.powers) - out.rank} direction(s) dropped")
   return out
-
-
-def fit_each(x: np.ndarray, y: np.ndarray, degrees: tuple, ridges: tuple,
-             rcond: float = 1e-10) -> PolyFit:
-  """Ridge least squares of each output y[:, j] (N, A) on the monomials with cross terms of
-  the standardised x (N, C) up to its own degree `degrees[j]`, with its own ridge weight
-  `ridges[j]` (on the sum of squares): one `PolyFit` over the highest degree's monomials, an
-  output's coefficients zero on those above its degree (the graded order puts a lower
-  degree's monomials first), each degree factored once."""
-  import warnings
-  if len(degrees) != y.shape[1] or len(ridges) != y.shape[1]:
-    raise errors.SettingError(f"{len(degrees)} degrees and {len(ridges)} ridge weights for "
-                              f"{y.shape[1]} outputs: allowed one of each per output")
-  if not all(np.isfinite(r) and r >= 0 for r in ridges):
-    raise errors.SettingError(f"ridges={ridges!r} are out of range: allowed [0, inf)")
-  top = factor(x, y, max(degrees), True, rcond)
-  coef, bias = np.zeros((len(top.powers), y.shape[1])), np.zeros(y.shape[1])
-  rank = 0
-  for deg in sorted(set(degrees)):
-    f = top if deg == max(degrees) else factor(x, y, deg, True, rcond)
-    for j in (j for j, d in enumerate(degrees) if d == deg):
-      one = f.solve(ridges[j])
-      coef[:len(f.powers), j], bias[j] = one.coef[:, j], one.bias[j]
-      if one.rank < len(f.powers) and ridges[j] == 0:
-        warnings.warn(f"polynomial features are rank-deficient ({one.rank} of "
-                      f"{len(f.powers)}): {len(f.powers) - one.rank} direction(s) dropped")
-    rank = max(rank, int(f.keep.sum()))
-  return PolyFit(top.mean, top.scale, top.lo, top.hi, top.powers, coef, bias,
-                 tuple(float(r) for r in ridges), rank)
 
 
 RIDGES = (0.0,) + tuple(10.0 ** k for k in range(-8, 1))  # times the number of samples
