@@ -145,7 +145,7 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
   # a recording without in-box samples is no draw; one recording alone tells no spread
   none = metrics.share_range(np.array([[5.0], [0.0]]), np.array([10.0, 0.0]), seed=0)
   assert np.isnan(none).all()
-  # pooled draws resample their recordings together
+  # pooled draws resample the draws, each one's recordings together (they share its paths)
   draw = {"auto": {"nrmse_pct": [1.0], "r2_pct": [99.0], "seconds": 1.0, "test_samples": 300,
                    "inputs_out_of_box_pct": [0.0], "coverage_pct": [100.0],
                    "coverage_in_box_pct": [100.0], "coverage_out_of_box_pct": [float("nan")],
@@ -154,12 +154,18 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
   worse = {"auto": {**draw["auto"], "coverage_pct": [0.0], "coverage_in_box_pct": [0.0],
                     "in_box_inside_by_recording": [[0.0, 0.0, 0.0]]}}
   got = rr.pool([draw, worse], seed=1)["auto"]
-  assert got["in_box_by_recording"] == [100.0] * 6
-  assert got["in_box_inside_by_recording"] == [[100.0] * 3 + [0.0] * 3]
+  assert got["in_box_by_draw"] == [300.0] * 2
+  assert got["in_box_inside_by_draw"] == [[300.0, 0.0]]
   lo, hi = got["coverage_in_box_range_pct"]
-  assert lo[0] < 50.0 < hi[0] and got["coverage_in_box_pct"] == [50.0]
+  # two draws resampled: 0, 50 or 100 %, each of the extremes a quarter of the time
+  assert (lo[0], hi[0]) == (0.0, 100.0) and got["coverage_in_box_pct"] == [50.0]
   line = rr.coverage_spread({"auto": got}, ("Fx",))[0]
-  assert "rests on 6 test recordings" in line and f"Fx: {lo[0]:.1f}-{hi[0]:.1f}" in line
+  assert "rests on 2 draws" in line and "Fx: 0.0-100.0" in line
+  # recordings that agree within each draw but not between draws: as draws the range is
+  # wider than the nine recordings' would be (Binomial(9, 2/3)'s 5 % point, 4 of 9)
+  three = rr.pool([draw, worse, draw], seed=1)["auto"]["coverage_in_box_range_pct"]
+  alone = metrics.share_range(np.array([[100.0]] * 6 + [[0.0]] * 3), np.full(9, 100.0), seed=1)
+  assert three[0][0] == pytest.approx(100 / 3) and alone[0][0] == pytest.approx(400 / 9)
 
 
 def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_offsets():
