@@ -130,7 +130,8 @@ def test_real_recordings_holds_out_the_folds_calibrate_fit_would(recordings, ask
 def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
   """A coverage resting on R recordings, each nearly all inside or all outside its interval,
   is a share of R draws: resampled over the recordings its 90 % range is the binomial's
-  (scipy), not a sample count's; pooled draws resample every draw's recordings together."""
+  (scipy), not a sample count's; pooled draws resample the draws, each with its recordings
+  (they share its paths and loads), so a spread between draws shows whole."""
   import scipy.stats
   from benchmarks.calibrators import real_recordings as rr
   from calibrate import metrics
