@@ -393,7 +393,7 @@ def _ours(ctx, d: Data) -> dict:
         r["in_box_by_recording"] = np.bincount(labels, ~far).tolist()
         r["in_box_inside_by_recording"] = [np.bincount(labels, inside[:, j] & ~far).tolist()
                                            for j in range(len(d.axes))]
-        _coverage_range(r, ctx.seed)
+        _coverage_range(r, r["in_box_inside_by_recording"], r["in_box_by_recording"], ctx.seed)
         r.update(test_bias((pred - d.yt)[~far], d.rect[~far], auto.info.interval_offsets))
       out[name] = r
   return out
@@ -531,7 +531,7 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
       r["in_box_by_draw"] = [float(np.sum(x["in_box_by_recording"])) for x in runs]
       r["in_box_inside_by_draw"] = [[float(np.sum(x["in_box_inside_by_recording"][j]))
                                      for x in runs] for j in range(len(r["nrmse_pct"]))]
-      _coverage_range(r, seed, "draw")
+      _coverage_range(r, r["in_box_inside_by_draw"], r["in_box_by_draw"], seed)
     out[m] = r
   return out
 
@@ -602,13 +602,12 @@ def _table(ctx, axes, results: dict) -> None:
     ctx.print(line)
 
 
-def _coverage_range(r: dict, seed: int, unit: str = "recording") -> None:
-  """Into scores `r` holding the in-box counts per test recording (or per draw, `unit`):
-  the in-box coverage's spread over them (`metrics.share_range`, 90 %), [lo per axis, hi
-  per axis]."""
+def _coverage_range(r: dict, inside, n, seed: int) -> None:
+  """Into scores `r`: the in-box coverage's spread (`metrics.share_range`, 90 %) over the
+  groups it rests on, test recordings or draws, from their in-box samples inside the interval
+  (A, R) and in all (R,); [lo per axis, hi per axis]."""
   from calibrate import metrics
-  lo, hi = metrics.share_range(np.array(r[f"in_box_inside_by_{unit}"], float).T,
-                               np.array(r[f"in_box_by_{unit}"], float), seed)
+  lo, hi = metrics.share_range(np.array(inside, float).T, np.array(n, float), seed)
   r["coverage_in_box_range_pct"] = [lo.tolist(), hi.tolist()]
 
 
