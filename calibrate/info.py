@@ -121,11 +121,11 @@ class Info:
     Two parts, added in quadrature: within a recording, the split-conformal quantile (the
     ceil((n + 1) level)-th smallest of the n held-out absolute residuals less their group's
     mean); between recordings, how far a new recording's mean error may lie, Student's t
-    at `level` with G degrees of freedom times the RMS of the G groups' mean errors. A
-    conformal quantile over samples alone treats a recording's thousands of samples as
-    thousands of draws when its offset is one draw: measured on the footpad's sessions, it
-    covered 2-100 % of a new session's samples at 95 %. The t factor states what G
-    recordings can tell (4.3 at 95 % from 2, 2.3 from 8).
+    at `level` with G - 1 degrees of freedom times the RMS of the G groups' mean errors
+    (`between`). A conformal quantile over samples alone treats a recording's thousands of
+    samples as thousands of draws when its offset is one draw: measured on the footpad's
+    sessions, it covered 2-100 % of a new session's samples at 95 %. The t factor states
+    what G recordings can tell (11.0 at 95 % from 2, 2.7 from 5, 2.3 from 8).
 
     Raises:
       errors.DataError when the estimator was fitted without cross-validation.
@@ -238,12 +238,23 @@ def local_half(within_part: np.ndarray, between_part: np.ndarray, scale: np.ndar
 
 
 def between(offsets: Optional[np.ndarray], a: int, level: float) -> np.ndarray:
-  """(A,) how far a new recording's mean error may lie: Student's t at `level` with G
-  degrees of freedom times the RMS of the G groups' mean errors (zeros below 2 groups)."""
+  """(A,) how far a new recording's mean error may lie: sqrt(1 - 1/G^2) times Student's t at
+  `level` with G - 1 degrees of freedom times the RMS of the G groups' held-out mean errors
+  (zeros below 2 groups).
+
+  The factor is exact where each group's offset is a normal draw and the estimator's own
+  offset the mean of its training groups': a held-out group's mean error is then its offset
+  less the other groups' mean, so the G of them hold G - 1 degrees of freedom (two groups'
+  are one number, of opposite signs), and a new group's offset less all G groups' mean
+  spreads sqrt(1 - 1/G^2) times as far as their RMS times t. Student's t with G degrees of
+  freedom, as it was, covers 87.4 % of new groups from 2 held out, 92.3 % from 3, 94.1 % from
+  5 (simulated, 100,000 draws each; this factor 95.0-95.1 %, and 95.0-95.2 % where folds
+  hold out several groups, 12 in 5 folds, 25 in 10)."""
   if offsets is None or len(offsets) < 2:
     return np.zeros(a)
   import scipy.stats
-  t = scipy.stats.t.ppf(0.5 + level / 2, df=len(offsets))
+  g = len(offsets)
+  t = np.sqrt(1.0 - 1.0 / g ** 2) * scipy.stats.t.ppf(0.5 + level / 2, df=g - 1)
   return t * np.sqrt(np.mean(offsets ** 2, axis=0))
 
 
