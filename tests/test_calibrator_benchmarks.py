@@ -171,8 +171,9 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
 
 def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_offsets():
   """`test_bias`: recordings offset by +-a about a common b give the mean b, and z = b over
-  RMS(held-out offsets) / sqrt(R); recordings drawn about zero give z = 0; the line names the
-  axes beyond Student's t's 97.5 % point at G held-out recordings (scipy: 4.30 at 2)."""
+  RMS(held-out offsets) x sqrt((1/R + 1/G) (G - 1)/G); recordings drawn about zero give
+  z = 0; the line names the axes beyond Student's t's 97.5 % point at G - 1 degrees of
+  freedom (scipy: 12.71 at 1)."""
   from benchmarks.calibrators import real_recordings as rr
   rng = np.random.default_rng(0)
   rec = np.repeat(np.arange(4), 50)
@@ -182,14 +183,37 @@ def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_off
   offsets = np.array([[2.0, 0.5], [-2.0, -0.5]])  # RMS 2 and 0.5
   got = rr.test_bias(noise + shift[rec] + [1.5, 0.0], rec, offsets)
   np.testing.assert_allclose(got["test_common_bias"], [1.5, 0.0], atol=1e-12)
-  np.testing.assert_allclose(got["test_bias_z"], [1.5 / (2.0 / 2.0), 0.0], atol=1e-12)
+  np.testing.assert_allclose(got["test_bias_z"], [1.5 / (2.0 * np.sqrt(0.75 / 2)), 0.0],
+                             atol=1e-12)
   assert "test_bias_z" not in rr.test_bias(noise, rec, None)  # no held-out offsets, no z
-  assert got["test_bias_dof"] == 2
-  line = rr.bias_lines({"auto": {**got, "test_bias_z": [4.5, 4.0],
+  assert got["test_bias_dof"] == 1
+  line = rr.bias_lines({"auto": {**got, "test_bias_z": [13.0, 4.0],
                                  "in_box_by_recording": [50, 50, 50, 50]}}, ("Fx", "Fy"))[0]
-  assert "4 test recordings" in line and "beyond 4.30 (one time in twenty by chance) on Fx:" \
+  assert "4 test recordings" in line and "beyond 12.71 (one time in twenty by chance) on Fx:" \
       in line
   pooled = rr.bias_lines({}, ("Fx", "Fy"), [
-      {"auto": {"test_bias_z": [3.0, 1.0], "test_bias_dof": 5}},
-      {"auto": {"test_bias_z": [-1.0, 1.0], "test_bias_dof": 5}}])[0]
-  assert f"Fx: {np.sqrt(5):.1f} Fy: 1.0" in pooled and "(1.29 where" in pooled
+      {"auto": {"test_bias_z": [3.0, 1.0], "test_bias_dof": 4}},
+      {"auto": {"test_bias_z": [-1.0, 1.0], "test_bias_dof": 4}}])[0]
+  assert f"Fx: {np.sqrt(5):.1f} Fy: 1.0" in pooled and "(1.41 where" in pooled \
+      and "the 5 held-out ones" in pooled
+
+
+def test_the_test_bias_z_of_recordings_drawn_alike_is_students_t():
+  """Every recording's offset a normal draw, the estimator's own the mean of its G training
+  recordings', each held out in turn: z of R test recordings lies beyond Student's t's
+  97.5 % point at G - 1 degrees of freedom 5 % of the time, to three standard errors over
+  4,000 draws (over RMS(offsets)/sqrt(R) and beyond t at G, as it was, 11.1 % at G = R = 5;
+  simulated, 200,000 draws)."""
+  import scipy.stats
+  from benchmarks.calibrators import real_recordings as rr
+  rng = np.random.default_rng(7)
+  g, r, n = 5, 5, 4000
+  edge = scipy.stats.t.ppf(0.975, g - 1)
+  rec = np.repeat(np.arange(r), 2)
+  far = 0
+  for _ in range(n):
+    train, test = rng.normal(size=g), rng.normal(size=r)
+    held = train - (train.sum() - train) / (g - 1)  # each less the other recordings' mean
+    got = rr.test_bias((test - train.mean())[rec][:, None], rec, held[:, None])
+    far += abs(got["test_bias_z"][0]) > edge
+  assert abs(far / n - 0.05) < 3 * np.sqrt(0.05 * 0.95 / n), far / n
