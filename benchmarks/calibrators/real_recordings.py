@@ -66,13 +66,12 @@ SESSIONS = 5
 # Z 2.0. LS alone covered Z 93.0 %, POLY 91.6 %: auto's Z kept the one of the two that
 # covered less in eight of the nine draws where they differed (kept POLY, four draws:
 # 67.4-97.9 % where LS covered 93.4-100 %; kept LS at seeds 2, 3, 7: 75.7-90.5 % where POLY
-# covered 99.8-100 %). The test paths
-# are not the cause: new sessions' Z offsets (LS, seeds 0-9) were 1.43 N RMS on the test
-# paths, 1.30 N on the training paths, the held-out sessions' 1.16 N but 0.78 N in the
-# median draw: five sessions' spread is mostly small and now and then large (`test_bias`).
-# At seed 3, over 150 random splits of 15 sessions into 5 held out and 5 new, t with 5
-# degrees of freedom times the held-out spread covered 89.3 % of the new sessions' Z
-# offsets (X 94.1, Y 94.4 %).
+# covered 99.8-100 %). The test paths are not the cause: new sessions' Z offsets (LS, seeds
+# 0-9) were 1.43 N RMS on the test paths, 1.30 N on the training paths, the held-out
+# sessions' 1.16 N but 0.78 N in the median draw: five sessions' spread is mostly small and
+# now and then large (`test_bias`). At seed 3, over 150 random splits of 15 sessions into 5
+# held out and 5 new, t with 5 degrees of freedom times the held-out spread covered 89.3 %
+# of the new sessions' Z offsets (X 94.1, Y 94.4 %).
 TEST_SESSIONS = 5
 
 
