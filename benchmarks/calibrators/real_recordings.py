@@ -625,14 +625,14 @@ def test_bias(error: np.ndarray, recording: np.ndarray, offsets) -> dict:
 
   The R test recordings share one estimator, whose own offset is an estimate from the G
   training recordings: their common error is the mean of their R offsets less that
-  estimate, which spreads as RMS(offsets) x sqrt((1/R + 1/G) (G - 1)/G) (a held-out
-  recording's mean error is its offset less its fold's other recordings' mean, so the G of
-  them hold G - 1 degrees of freedom). Over it, z is Student's t with G - 1 degrees of
-  freedom: beyond its 97.5 % point one time in twenty, its RMS over draws
-  sqrt((G - 1)/(G - 3)), 1.41 from 5. Over RMS(offsets)/sqrt(R) alone, as it was, recordings
-  drawn alike gave z far out: measured on the footpad (LS, seed 3, 150 random splits of 15
-  sessions of the training paths into 5 to train and 5 to test), its RMS X 1.71, Y 2.32,
-  Z 2.06 against the 1.29 then expected; on this scale 1.35, 1.83, 1.63 against 1.41.
+  estimate, which spreads as RMS(offsets) x sqrt((1/R + 1/G) (G - 1)/G)
+  (`calibrate.info.offset_spread`, the interval's between part at R = 1). Over it, z is
+  Student's t with G - 1 degrees of freedom: beyond its 97.5 % point one time in twenty,
+  its RMS over draws sqrt((G - 1)/(G - 3)), 1.41 from 5. Over RMS(offsets)/sqrt(R) alone,
+  as it was, recordings drawn alike gave z far out: measured on the footpad (LS, seed 3, 150
+  random splits of 15 sessions of the training paths into 5 to train and 5 to test), its
+  RMS X 1.71, Y 2.32, Z 2.06 against the 1.29 then expected; on this scale 1.35, 1.83, 1.63
+  against 1.41.
   Nor do the footpad's test paths differ much from its training paths: over seeds 0-9
   (LS), the RMS of new sessions' Z offsets was 1.30 N on the training paths, 1.43 N on the
   test paths, the held-out sessions' 1.16 N (0.78 N in the median draw, 2.69 N in one:
@@ -645,12 +645,10 @@ def test_bias(error: np.ndarray, recording: np.ndarray, offsets) -> dict:
   common = means.mean(axis=0)
   out = {"test_common_bias": common.tolist()}
   if offsets is not None and len(offsets) >= 2:
-    g, r = len(offsets), len(means)
-    spread = np.sqrt(np.mean(np.asarray(offsets) ** 2, axis=0)
-                     * (1.0 / r + 1.0 / g) * (g - 1) / g)
+    spread = info.offset_spread(offsets, len(means))
     out["test_bias_z"] = np.where(spread > 0, common / np.where(spread > 0, spread, 1.0),
                                   np.nan).tolist()
-    out["test_bias_dof"] = g - 1
+    out["test_bias_dof"] = len(offsets) - 1
   return out
 
 

@@ -417,8 +417,7 @@ def fit_auto(args, x, y, groups, names):
                  progress=quiet if args.no_progress else progress_bar("training"), **names)
   if getattr(args, "dt", None) is not None:  # --history: memory among the candidates
     return estimators.fit_auto_temporal(
-        x, y, args.dt, groups, args.folds, segments=args.recording,
-        contact=args.contact,
+        x, y, args.dt, groups, args.folds, segments=args.recording, contact=args.contact,
         taus=None if args.history == "auto" else (args.history or ()),
         tare=drift_tare(args, names["outputs"]), **options)
   return estimators.fit_auto(x, y, groups, args.folds, **options)
