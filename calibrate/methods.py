@@ -220,9 +220,7 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
     ls_rmse = np.sqrt(np.mean(runs[1] ** 2, axis=0))
     only = select.ls_only(rmse, ls_rmse)
     residual[:, only] = runs[1][:, only]
-    stats["cv_fold_rmse"] = select.stats(residual, parts, groups)["cv_fold_rmse"]
-    stats.update(cv_rmse_ls_stage=ls_rmse.tolist(), cv_rmse=np.where(only, ls_rmse,
-                                                                     rmse).tolist())
+    stats = {**select.stats(residual, parts, groups), "cv_rmse_ls_stage": ls_rmse.tolist()}
   beyond = None
   if plane and not tame[0]:
     beyond = runs[-1]
@@ -619,10 +617,11 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
       fitted.append(est)
   _say_once(heard)
   rows = _continuations(fitted, names)
-  best = select.one_standard_error(
-      np.array([i.validation["cv_rmse"] for _, _, i, _ in rows]),
-      np.array([i.validation["cv_fold_rmse"] for _, _, i, _ in rows]),
-      np.abs(np.asarray(forces, float)).max(axis=0))
+  share = select.between_share(forces, groups.labels)
+  scored = [select.model_error(i.validation, share) for _, _, i, _ in rows]
+  best = select.one_standard_error(np.array([r for r, _ in scored]),
+                                   np.array([f for _, f in scored]),
+                                   np.abs(np.asarray(forces, float)).max(axis=0))
   chosen = [rows[b] for b in best]
   # LS stays a part even where no output keeps it: its plane continues the networks beyond
   # the training box (`compose.PerOutput`)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from calibrate import __main__ as cli
-from calibrate import csvfile, estimators, methods, splits
+from calibrate import csvfile, estimators, methods, select, splits
 from calibrate.parts import deep, mlp
 from util import errors
 
@@ -161,6 +161,47 @@ def test_the_between_part_covers_its_level_of_new_groups_offsets(groups, folds):
   half = info.between(held.T, n, 0.95)  # each draw an output of its own
   covered = np.mean(np.abs(new - offset.mean(axis=1)) <= half)
   assert abs(covered - 0.95) < 3 * np.sqrt(0.95 * 0.05 / n), covered
+
+
+def test_the_between_share_is_none_for_groups_alike_and_all_for_one_state_each():
+  rng = np.random.default_rng(0)
+  labels = np.repeat(np.arange(8), 500)
+  alike = rng.normal(size=(4000, 2))
+  # groups drawn alike: between-group sum of squares ~ (G - 1) / (N - 1) of the total
+  assert np.all(select.between_share(alike, labels) < 5 * 7 / 3999)
+  states = np.repeat(rng.normal(size=(8, 2)), 500, axis=0)
+  np.testing.assert_allclose(select.between_share(states, labels), 1.0)
+  # a state per group plus noise centred in each group: the states' sum of squares over all
+  noise = alike - np.repeat(alike.reshape(8, 500, 2).mean(axis=1), 500, axis=0)
+  between = 500 * np.sum((states[::500] - states[::500].mean(axis=0)) ** 2, axis=0)
+  np.testing.assert_allclose(select.between_share(states + noise, labels),
+                             between / (between + np.sum(noise ** 2, axis=0)))
+
+
+def test_the_model_error_weighs_the_held_out_groups_mean_errors_by_the_share():
+  rng = np.random.default_rng(1)
+  g = splits.groups(3000, "blocks", block=100)
+  parts = splits.folds(g, 5, 0)
+  offsets = rng.normal(0, 2.0, (g.count, 2))[g.labels]
+  residual = rng.normal(size=(3000, 2)) + offsets
+  stats = select.stats(residual, parts, g)
+  whole = select.model_error(stats, np.ones(2))
+  np.testing.assert_allclose(whole[0], stats["cv_rmse"])
+  np.testing.assert_allclose(whole[1], stats["cv_fold_rmse"])
+  # share 0: the residual less its group's mean, directly
+  means = np.array([residual[g.labels == k].mean(axis=0) for k in range(g.count)])
+  within = residual - means[g.labels]
+  none = select.model_error(stats, np.zeros(2))
+  np.testing.assert_allclose(none[0], np.sqrt(np.mean(within ** 2, axis=0)))
+  np.testing.assert_allclose(none[1], [np.sqrt(np.mean(within[va] ** 2, axis=0))
+                                       for _, va in parts])
+  # a simpler candidate whose only excess is its groups' offsets: kept where the groups
+  # span the same loads, passed over where each holds one state
+  simple = select.stats(within + 1.5 * offsets, parts, g)
+  picks = [select.one_standard_error(*map(np.array, zip(*[select.model_error(v, share)
+                                                           for v in (simple, stats)])),
+                                     np.ones(2)) for share in (np.zeros(2), np.ones(2))]
+  assert picks[0].tolist() == [0, 0] and picks[1].tolist() == [1, 1]
 
 
 def test_the_conformal_half_width_is_the_order_statistic_it_names():
@@ -324,7 +365,12 @@ def test_auto_keeps_per_output_the_candidate_with_the_lowest_held_out_error(tmp_
     return e.info if r.endswith(own) else (e.plane_info or e.info)
   rmse = np.array([row_info(r).validation["cv_rmse"] for r in rows])
   np.testing.assert_array_equal(rmse, np.array(list(est.info.validation["candidates"].values())))
-  folds = np.array([row_info(r).validation["cv_fold_rmse"] for r in rows])
+  # scored as auto scores them: the blocks' mean errors weighed by the loads' share
+  # between blocks
+  share = select.between_share(y, g.labels)
+  scored = [select.model_error(row_info(r).validation, share) for r in rows]
+  rmse = np.array([r for r, _ in scored])
+  folds = np.array([f for _, f in scored])
   for j, m in enumerate(chosen):  # the one-standard-error rule: the simplest close enough
     low = int(np.argmin(rmse[:, j]))
     se = folds[low, :, j].std(ddof=1) / np.sqrt(folds.shape[1])
