@@ -630,6 +630,8 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
   pick = tuple(used.index(k) for k, _, _, _ in chosen)
   info = _auto_info([i for _, _, i, _ in chosen], [n for _, _, _, n in chosen],
                     fitted[used[0]].info, {n: i.validation["cv_rmse"] for _, _, i, n in rows})
+  info = dataclasses.replace(info, validation={**info.validation,
+                                               "between_share": share.tolist()})
   # the box of every column: the parts reading fewer take its first ones
   width = max(fitted[k].root.n_inputs for k in used)
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick,

@@ -428,6 +428,10 @@ def test_the_command_compares_every_method_and_fit_auto_writes_the_best(tmp_path
   out = capsys.readouterr().out
   assert "answers: how far off on a recording the fit never saw" in out
   assert "--split blocks: later time in these same recordings" in out
+  # the recordings span the same loads: their mean errors count by that small share
+  share = estimators.Estimator.load(tmp_path / "a.npz").info.validation["between_share"]
+  assert max(share) < 0.2 and "weighed by the loads' share between recordings (Fx " \
+      f"{share[0]:.2f}" in out
   est = estimators.Estimator.load(tmp_path / "a.npz")
   assert est.kind is estimators.Kind.AUTO
   continued, reach = est.continued()  # what is carried past the box, and how far it was checked

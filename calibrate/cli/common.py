@@ -498,6 +498,12 @@ def print_candidates(est, candidates: dict) -> None:
         f"{v:11.4g}{'*' if chosen[j] == method else ' '}" for j, v in enumerate(row["cv_rmse"]))
         + f" {row['seconds']:8.1f}")
   print("held-out RMSE per output (grouped cross-validation); * the method kept for it")
+  share = info.validation.get("between_share")
+  if share is not None and min(share) < 0.99:
+    print("* chosen with each held-out recording's mean error weighed by the loads' share "
+          "between recordings (" + ", ".join(f"{n} {v:.2f}" for n, v in zip(info.outputs, share))
+          + "):\n  where each recording spans the same loads, its offset is its own (a drift), "
+          "not the model's")
 
 
 def ensemble_hint(candidates: dict) -> None:
