@@ -104,12 +104,12 @@ def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups,
   """Every candidate fitted and cross-validated on the same grouped folds; for each output,
   the simplest (in the order of `candidates`) whose held-out RMSE is within one standard
   error over the folds (or `TIE`) of the lowest, the held-out groups' mean errors weighed
-  by the share of the loads' variance between the groups (`select.model_error`). A candidate that is not tame (a network, a
-  cubic) is scored as `auto` predicts with it: continued along LS's plane past the training
-  box (its correction to LS fading out past the held-out samples' reach, `compose.
-  PerOutput`), and again, named "<name> unguarded", as it extrapolates itself, which is kept only
-  where the held-out samples beyond their fold's box say it is the better (`methods.
-  _continuations`). `candidates`: names of
+  by the share of the loads' variance between the groups (`select.model_error`). A
+  candidate that is not tame (a network, a cubic) is scored as `auto` predicts with it:
+  continued along LS's plane past the training box (its correction to LS fading out past
+  the held-out samples' reach, `compose.PerOutput`), and again, named "<name> unguarded",
+  as it extrapolates itself, which is kept only where the held-out samples beyond their
+  fold's box say it is the better (`methods._continuations`). `candidates`: names of
   `methods.AUTO` (or methods, each its plain fit); None: `methods.AUTO_CANDIDATES`, LS,
   each channel's powers (POLY-CH), POLY with cross terms, LSANN and NN.
 

@@ -20,6 +20,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from calibrate import splits
+from calibrate.info import group_means
 
 TIE = 0.01  # relative held-out RMSE within which `one_standard_error` prefers the simpler
 GAIN = 0.99  # `greedy` keeps a candidate that leaves at most this share of the error
@@ -48,15 +49,14 @@ def fold_sums(residual: np.ndarray, parts, scale=1.0) -> np.ndarray:
 
 def stats(residual: np.ndarray, parts, groups: splits.Groups) -> dict:
   """What a grouped cross-validation gave, for `Info.validation`: the split, its groups and
-  folds, the held-out RMSE per output, overall and per fold, and per fold the part of its
-  mean square that is the held-out groups' mean errors (`between_ms`: sum over its groups of
-  n_g x mean_g^2 / n; (N, A) residual)."""
+  folds, the held-out RMSE per output, overall and per fold, and the part of the mean square
+  that is the held-out groups' mean errors, overall and per fold (`cv_between_ms`,
+  `cv_fold_between_ms`: the sum over the groups of n_g x mean_g^2, over n; (N, A) residual)."""
   def between(rows):
-    labels, r = groups.labels[rows], residual[rows]
-    _, inv, n = np.unique(labels, return_inverse=True, return_counts=True)
-    means = np.zeros((len(n), r.shape[1]))
-    np.add.at(means, inv, r)
-    return (np.sum(means ** 2 / n[:, None], axis=0) / len(rows)).tolist()
+    labels = groups.labels[rows]
+    n = np.unique(labels, return_counts=True)[1]
+    means = group_means(residual[rows], labels)
+    return (np.sum(n[:, None] * means ** 2, axis=0) / len(rows)).tolist()
   return {"split": groups.how, "groups": groups.count, "block": groups.block,
           "folds": len(parts), "cv_rmse": np.sqrt(np.mean(residual ** 2, axis=0)).tolist(),
           "cv_fold_rmse": [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
@@ -96,12 +96,10 @@ def between_share(y: np.ndarray, labels: np.ndarray) -> np.ndarray:
   targets, (N,) group labels): 0 where every group spans the same loads, 1 where each holds
   one load state."""
   y = np.asarray(y, float)
-  _, inv, n = np.unique(labels, return_inverse=True, return_counts=True)
-  means = np.zeros((len(n), y.shape[1]))
-  np.add.at(means, inv, y)
-  means /= n[:, None]
-  total = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
-  between = np.sum(n[:, None] * (means - y.mean(axis=0)) ** 2, axis=0)
+  n = np.unique(labels, return_counts=True)[1]
+  centred = y - y.mean(axis=0)
+  total = np.sum(centred ** 2, axis=0)
+  between = np.sum(n[:, None] * group_means(centred, labels) ** 2, axis=0)
   return np.where(total > 0, between / np.where(total > 0, total, 1.0), 1.0)
 
 
@@ -119,6 +117,7 @@ def model_error(validation: dict, share: np.ndarray) -> tuple[np.ndarray, np.nda
   and 0.3 points, the fingertip's the same (seeds 1-4), and where each recording holds
   one load state (the share 1) nothing changes."""
   keep = 1.0 - np.asarray(share)
+  # a validation without its between part (none is written so now) weighs nothing
   fold_ms = np.square(validation["cv_fold_rmse"]) \
       - keep * np.asarray(validation.get("cv_fold_between_ms", 0.0))
   ms = np.square(validation["cv_rmse"]) - keep * np.asarray(
