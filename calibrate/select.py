@@ -107,8 +107,8 @@ def model_error(validation: dict, share: np.ndarray) -> tuple[np.ndarray, np.nda
   """((A,), (F, A)) a candidate's held-out RMSE, overall and per fold, with the held-out
   groups' mean errors weighed by `share` (`between_share`). A group's mean error measures
   the model only as far as the groups' loads differ: where every recording spans the same
-  loads it is the recording's own offset (on the footpad, thermal drift: 0.00 N with it
-  off), common to every candidate and, from five recordings, noise: by the whole error
+  loads it is mostly the recording's own offset (on the footpad, thermal drift through each
+  candidate's gains: 0.00 N with it off), and from five recordings noise: by the whole error
   `fit_auto`'s Z pick between LS and POLY kept the one that covered new sessions less in
   eight of nine draws. Measured (`real_recordings`, footpad seeds 0-9, every candidate),
   whole error then weighed: in-box Z coverage 86.9 to 94.0 %, auto / best baseline Z 0.98
