@@ -100,7 +100,8 @@ def between_share(y: np.ndarray, labels: np.ndarray) -> np.ndarray:
   centred = y - y.mean(axis=0)
   total = np.sum(centred ** 2, axis=0)
   between = np.sum(n[:, None] * group_means(centred, labels) ** 2, axis=0)
-  return np.where(total > 0, between / np.where(total > 0, total, 1.0), 1.0)
+  # rounding leaves one state per group at 1 +- 5e-14 (the shell's 48 static loads)
+  return np.clip(np.where(total > 0, between / np.where(total > 0, total, 1.0), 1.0), 0, 1)
 
 
 def model_error(validation: dict, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
