@@ -629,9 +629,8 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
   used = sorted({k for k, _, _, _ in chosen} | set(ls))
   pick = tuple(used.index(k) for k, _, _, _ in chosen)
   info = _auto_info([i for _, _, i, _ in chosen], [n for _, _, _, n in chosen],
-                    fitted[used[0]].info, {n: i.validation["cv_rmse"] for _, _, i, n in rows})
-  info = dataclasses.replace(info, validation={**info.validation,
-                                               "between_share": share.tolist()})
+                    fitted[used[0]].info, {n: i.validation["cv_rmse"] for _, _, i, n in rows},
+                    share)
   # the box of every column: the parts reading fewer take its first ones
   width = max(fitted[k].root.n_inputs for k in used)
   root = compose.PerOutput(tuple(fitted[k].root for k in used), pick,
@@ -677,9 +676,10 @@ def _say_once(heard) -> None:
     warnings.warn(message, category, stacklevel=3)
 
 
-def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
+def _auto_info(infos, chosen_names, first: Info, candidates: dict, share) -> Info:
   """AUTO's `Info`: each output's spread, interval and held-out RMSE from its candidate's
-  (`infos`, one per output); `candidates` {name: held-out RMSE per output}."""
+  (`infos`, one per output); `candidates` {name: held-out RMSE per output}; `share` (A,)
+  the loads' share between the groups the choice weighed (`select.between_share`)."""
   cols = range(len(infos))
   return dataclasses.replace(
       first, residual_sd=np.array([i.residual_sd[j] for j, i in zip(cols, infos)]),
@@ -698,7 +698,7 @@ def _auto_info(infos, chosen_names, first: Info, candidates: dict) -> Info:
       validation={**{k: v for k, v in first.validation.items()
                      if k in ("split", "groups", "block", "folds")},
                   "cv_rmse": [i.validation["cv_rmse"][j] for j, i in zip(cols, infos)],
-                  "chosen": list(chosen_names),
+                  "chosen": list(chosen_names), "between_share": share.tolist(),
                   "held_out_beyond_box": min(i.validation.get("held_out_beyond_box", 0)
                                              for i in infos),
                   "candidates": candidates,

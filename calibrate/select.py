@@ -53,10 +53,7 @@ def stats(residual: np.ndarray, parts, groups: splits.Groups) -> dict:
   that is the held-out groups' mean errors, overall and per fold (`cv_between_ms`,
   `cv_fold_between_ms`: the sum over the groups of n_g x mean_g^2, over n; (N, A) residual)."""
   def between(rows):
-    labels = groups.labels[rows]
-    n = np.unique(labels, return_counts=True)[1]
-    means = group_means(residual[rows], labels)
-    return (np.sum(n[:, None] * means ** 2, axis=0) / len(rows)).tolist()
+    return (between_squares(residual[rows], groups.labels[rows]) / len(rows)).tolist()
   return {"split": groups.how, "groups": groups.count, "block": groups.block,
           "folds": len(parts), "cv_rmse": np.sqrt(np.mean(residual ** 2, axis=0)).tolist(),
           "cv_fold_rmse": [np.sqrt(np.mean(residual[va] ** 2, axis=0)).tolist()
@@ -91,15 +88,19 @@ def ls_only(full_rmse: np.ndarray, base_rmse: np.ndarray) -> np.ndarray:
   return base_rmse <= full_rmse
 
 
+def between_squares(values: np.ndarray, labels: np.ndarray) -> np.ndarray:
+  """(A,) the sum over the groups of n_g x mean_g^2 of `values` (N, A), (N,) group labels."""
+  n = np.unique(labels, return_counts=True)[1]
+  return np.sum(n[:, None] * group_means(values, labels) ** 2, axis=0)
+
+
 def between_share(y: np.ndarray, labels: np.ndarray) -> np.ndarray:
   """(A,) the share of each output's variance that lies between the groups' means ((N, A)
   targets, (N,) group labels): 0 where every group spans the same loads, 1 where each holds
   one load state."""
-  y = np.asarray(y, float)
-  n = np.unique(labels, return_counts=True)[1]
-  centred = y - y.mean(axis=0)
+  centred = np.asarray(y, float) - np.mean(y, axis=0)
   total = np.sum(centred ** 2, axis=0)
-  between = np.sum(n[:, None] * group_means(centred, labels) ** 2, axis=0)
+  between = between_squares(centred, labels)
   # rounding leaves one state per group at 1 +- 5e-14 (the shell's 48 static loads)
   return np.clip(np.where(total > 0, between / np.where(total > 0, total, 1.0), 1.0), 0, 1)
 
@@ -118,11 +119,9 @@ def model_error(validation: dict, share: np.ndarray) -> tuple[np.ndarray, np.nda
   and 0.3 points, the fingertip's the same (seeds 1-4), and where each recording holds
   one load state (the share 1) nothing changes."""
   keep = 1.0 - np.asarray(share)
-  # a validation without its between part (none is written so now) weighs nothing
   fold_ms = np.square(validation["cv_fold_rmse"]) \
-      - keep * np.asarray(validation.get("cv_fold_between_ms", 0.0))
-  ms = np.square(validation["cv_rmse"]) - keep * np.asarray(
-      validation.get("cv_between_ms", 0.0))
+      - keep * np.asarray(validation["cv_fold_between_ms"])
+  ms = np.square(validation["cv_rmse"]) - keep * np.asarray(validation["cv_between_ms"])
   return np.sqrt(np.maximum(ms, 0.0)), np.sqrt(np.maximum(fold_ms, 0.0))
 
 
