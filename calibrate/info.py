@@ -88,8 +88,8 @@ class Info:
     self.check_level(level)
     growth = np.zeros(len(self.outputs)) if self.interval_growth is None else \
         self.interval_growth
-    local = local_half(self.within_width(level), self.between_width(level),
-                       self.local_scale(x))
+    local = local_half(self.within_width(level), self.interval_offsets,
+                       self.local_scale(x), level)
     return local * (1.0 + np.outer(self.distance(x), growth))
 
   def local_scale(self, x: np.ndarray) -> np.ndarray:
@@ -118,20 +118,21 @@ class Info:
   def half_width(self, level: float) -> np.ndarray:
     """(A,) half-width of the interval at `level` (0.5 to 0.999), per output.
 
-    Two parts, added in quadrature: within a recording, the split-conformal quantile (the
+    Two parts, joined by `combine`: within a recording, the split-conformal quantile (the
     ceil((n + 1) level)-th smallest of the n held-out absolute residuals less their group's
-    mean); between recordings, how far a new recording's mean error may lie, Student's t
-    at `level` with G - 1 degrees of freedom times the RMS of the G groups' mean errors
-    (`between`). A conformal quantile over samples alone treats a recording's thousands of
-    samples as thousands of draws when its offset is one draw: measured on the footpad's
-    sessions, it covered 2-100 % of a new session's samples at 95 %. The t factor states
-    what G recordings can tell (11.0 at 95 % from 2, 2.7 from 5, 2.3 from 8).
+    mean); between recordings, the spread of a new recording's mean error from the G
+    groups' held-out mean errors, which G - 1 degrees of freedom carry (`between` alone:
+    Student's t at `level` times it). A conformal quantile over samples alone treats a
+    recording's thousands of samples as thousands of draws when its offset is one draw:
+    measured on the footpad's sessions, it covered 2-100 % of a new session's samples at
+    95 %. The t factor states what G recordings can tell (11.0 at 95 % from 2, 2.7 from 5,
+    2.3 from 8), as far as the between part weighs in the sum.
 
     Raises:
       errors.DataError when the estimator was fitted without cross-validation.
     """
     self.check_level(level)
-    return np.hypot(self.within_width(level), self.between_width(level))
+    return combine(self.within_width(level), self.interval_offsets, level)
 
   def check_level(self, level: float) -> None:
     """Raises errors.DataError when the estimator holds no interval, errors.SettingError
@@ -230,11 +231,37 @@ def scale_at(local: np.ndarray, d: np.ndarray) -> np.ndarray:
   return np.maximum(1.0, local[:, 0] + np.outer(d, local[:, 1]))
 
 
-def local_half(within_part: np.ndarray, between_part: np.ndarray, scale: np.ndarray
-               ) -> np.ndarray:
-  """(N, A) half-widths: the within part (A,) times each row's local scale (N, A), added in
-  quadrature to the between part (A,)."""
-  return np.hypot(within_part * scale, between_part)
+def local_half(within_part: np.ndarray, offsets: Optional[np.ndarray], scale: np.ndarray,
+               level: float) -> np.ndarray:
+  """(N, A) half-widths at `level`: the within part (A,) times each row's local scale
+  (N, A), joined to the between part of the groups' held-out mean errors `offsets` (G, A)
+  by `combine`."""
+  return combine(within_part * scale, offsets, level)
+
+
+def combine(within_part: np.ndarray, offsets: Optional[np.ndarray], level: float
+            ) -> np.ndarray:
+  """(A,) or (N, A) half-widths at `level` of a new recording's error: its within part
+  (the conformal quantile, A or N x A) plus its mean error, whose spread `offset_spread`
+  the G groups' held-out mean errors `offsets` (G, A) give with G - 1 degrees of freedom
+  (None or one group: the within part alone).
+
+  Welch-Satterthwaite: Student's t at `level` with the sum's effective degrees of freedom
+  (G - 1)(w^2 + s^2)^2 / s^4 times sqrt(w^2 + s^2), w the within part over the normal
+  quantile (its many samples: known), s the spread. Where s is nothing it gives the
+  conformal quantile itself; where w is, `between`. Adding the two parts in quadrature, as
+  before, charged the t factor to the between part whatever its weight: simulated (G = 5,
+  normal parts, 200,000 draws) that covered 95.1-96.6 % as s / w went from 0 to 5, most
+  (96.6 %) where the two are alike, as on the shell's Fy; this covers 94.1-95.1 %."""
+  if offsets is None or len(offsets) < 2:
+    return np.asarray(within_part, float)
+  import scipy.stats
+  g = len(offsets)
+  w2 = (np.asarray(within_part, float) / scipy.stats.norm.ppf(0.5 + level / 2)) ** 2
+  s2 = np.broadcast_to(offset_spread(offsets, 1) ** 2, np.shape(w2))
+  with np.errstate(divide="ignore"):
+    dof = np.where(s2 > 0, (g - 1) * (w2 + s2) ** 2 / np.where(s2 > 0, s2, 1.0) ** 2, np.inf)
+  return scipy.stats.t.ppf(0.5 + level / 2, dof) * np.sqrt(w2 + s2)
 
 
 def between(offsets: Optional[np.ndarray], a: int, level: float) -> np.ndarray:
@@ -292,9 +319,8 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
     scale = scale_at(local, near[0])
     out.update(interval_local=local, interval_reference=near[1])
   if distance is not None:
-    a = residual.shape[1]
-    half = local_half(within(out["interval_abs"], len(residual), GROWTH_LEVEL),
-                      between(offsets, a, GROWTH_LEVEL), scale)
+    half = local_half(within(out["interval_abs"], len(residual), GROWTH_LEVEL), offsets,
+                      scale, GROWTH_LEVEL)
     growth, beyond = interval_growth(np.abs(residual), distance, half)
     out["interval_growth"] = growth
     out["validation"] = {**stats, "held_out_beyond_box": int(beyond),

@@ -155,7 +155,7 @@ def interval_lines(info, level: float, scale: np.ndarray, units) -> None:
   between = info.between_width(level)
   if between.any():
     g = len(info.interval_offsets)
-    print(f"  of which how far a new group's mean error may lie (Student's t over {g} "
+    print(f"  of which how far a new group's mean error alone may lie (Student's t over {g} "
           f"groups' means): " + ", ".join(f"{n} +-{b:.4g} {u}" for n, b, u in
                                           zip(info.outputs, between, units))
           + ("; more recordings narrow it" if g < 8 else ""))
