@@ -88,8 +88,8 @@ class Info:
     self.check_level(level)
     growth = np.zeros(len(self.outputs)) if self.interval_growth is None else \
         self.interval_growth
-    local = local_half(self.within_width(level), self.interval_offsets,
-                       self.local_scale(x), level)
+    local = combine(self.within_width(level) * self.local_scale(x), self.interval_offsets,
+                    level)
     return local * (1.0 + np.outer(self.distance(x), growth))
 
   def local_scale(self, x: np.ndarray) -> np.ndarray:
@@ -231,14 +231,6 @@ def scale_at(local: np.ndarray, d: np.ndarray) -> np.ndarray:
   return np.maximum(1.0, local[:, 0] + np.outer(d, local[:, 1]))
 
 
-def local_half(within_part: np.ndarray, offsets: Optional[np.ndarray], scale: np.ndarray,
-               level: float) -> np.ndarray:
-  """(N, A) half-widths at `level`: the within part (A,) times each row's local scale
-  (N, A), joined to the between part of the groups' held-out mean errors `offsets` (G, A)
-  by `combine`."""
-  return combine(within_part * scale, offsets, level)
-
-
 def combine(within_part: np.ndarray, offsets: Optional[np.ndarray], level: float
             ) -> np.ndarray:
   """(A,) or (N, A) half-widths at `level` of a new recording's error: its within part
@@ -259,8 +251,7 @@ def combine(within_part: np.ndarray, offsets: Optional[np.ndarray], level: float
   g = len(offsets)
   w2 = (np.asarray(within_part, float) / scipy.stats.norm.ppf(0.5 + level / 2)) ** 2
   s2 = np.broadcast_to(offset_spread(offsets, 1) ** 2, np.shape(w2))
-  with np.errstate(divide="ignore"):
-    dof = np.where(s2 > 0, (g - 1) * (w2 + s2) ** 2 / np.where(s2 > 0, s2, 1.0) ** 2, np.inf)
+  dof = np.where(s2 > 0, (g - 1) * (w2 + s2) ** 2 / np.where(s2 > 0, s2, 1.0) ** 2, np.inf)
   return scipy.stats.t.ppf(0.5 + level / 2, dof) * np.sqrt(w2 + s2)
 
 
@@ -319,8 +310,8 @@ def held_out(residual: np.ndarray, groups: splits.Groups, stats: dict,
     scale = scale_at(local, near[0])
     out.update(interval_local=local, interval_reference=near[1])
   if distance is not None:
-    half = local_half(within(out["interval_abs"], len(residual), GROWTH_LEVEL), offsets,
-                      scale, GROWTH_LEVEL)
+    half = combine(within(out["interval_abs"], len(residual), GROWTH_LEVEL) * scale, offsets,
+                   GROWTH_LEVEL)
     growth, beyond = interval_growth(np.abs(residual), distance, half)
     out["interval_growth"] = growth
     out["validation"] = {**stats, "held_out_beyond_box": int(beyond),

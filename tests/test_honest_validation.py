@@ -578,7 +578,7 @@ def test_the_local_scale_covers_the_far_samples_the_one_width_misses():
     assert (a > 0) == slope
     d, r = draw(spread)  # a fresh draw: coverage out of sample
     flat = info_lib.within(fields["interval_abs"], fields["interval_n"], 0.95)
-    local = info_lib.local_half(flat, None, np.maximum(1.0, b + a * d[:, None]), 0.95)
+    local = info_lib.combine(flat * np.maximum(1.0, b + a * d[:, None]), None, 0.95)
     covered = lambda half, m: np.mean(np.abs(r[m]) <= half)
     near, far = d < 0.25, d >= 0.25
     assert 0.93 <= covered(local[far], far) <= 0.97
