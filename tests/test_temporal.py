@@ -366,14 +366,9 @@ int main(int argc, char **argv) {
 """
 
 
-@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
-@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("fixed", [False, True])
-def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, fixed):
-  """The GRU exported in float agrees with `predict` within 1e-5 of scale, in Q16 fixed point
-  within 1e-3; where qemu-arm and the ARM compiler are at hand, the instructions executed
-  per estimate lie within 15 % of the cost model's (measured: float H=8 69,447 against
-  71,880; fixed 6,339)."""
+@pytest.fixture(scope="module")
+def drifting_gru():
+  """(a GRU behind a tare, its counts, its recordings' labels): one fit for both exports."""
   from calibrate.parts import gru
   rng = np.random.default_rng(6)
   counts, f, labels, _ = _drifting(rng, n=12_000, segments=3)
@@ -381,6 +376,19 @@ def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, 
   est = estimators.fit_temporal("GRU", counts, f, DT, segments=labels, taus=(0.05,), seed=1,
                                 tare=memory.Tare(threshold=5.0),
                                 gru=gru.GRUConfig(hidden=8, steps=300))
+  return est, counts, labels
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.parametrize("fixed", [False, True])
+def test_the_gru_in_c_float_or_fixed_point_costs_what_the_report_says(tmp_path, fixed,
+                                                                       drifting_gru):
+  """The GRU exported in float agrees with `predict` within 1e-5 of scale, in Q16 fixed point
+  within 1e-3; where qemu-arm and the ARM compiler are at hand, the instructions executed
+  per estimate lie within 15 % of the cost model's (measured: float H=8 69,447 against
+  71,880; fixed 6,339)."""
+  est, counts, labels = drifting_gru
   got, report = _run_in_c(est, counts, labels, tmp_path, fixed)
   want = est.predict(counts, segments=labels)
   assert np.max(np.abs(got - want) / np.abs(want).max(axis=0)) < (1e-3 if fixed else 1e-5)
