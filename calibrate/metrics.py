@@ -13,15 +13,23 @@ def rmse(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
 
 
 def nrmse_pct(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
-  """RMSE as % of the range of the truth (Eqn 6)."""
-  return 100.0 * rmse(pred, truth) / np.ptp(truth, axis=0)
+  """RMSE as % of the range of the truth (Eqn 6); NaN where the truth does not vary (one
+  static load), which has no range to scale by."""
+  return 100.0 * _over(rmse(pred, truth), np.ptp(truth, axis=0))
 
 
 def r2_pct(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
-  """Coefficient of determination, % (Eqn 9)."""
+  """Coefficient of determination, % (Eqn 9); NaN where the truth does not vary."""
   ss_res = np.sum((truth - pred) ** 2, axis=0)
   ss_tot = np.sum((truth - np.mean(truth, axis=0)) ** 2, axis=0)
-  return 100.0 * (1.0 - ss_res / ss_tot)
+  # a constant column's sum around its mean is rounding (1e-35), not a spread
+  return 100.0 * (1.0 - _over(ss_res, np.where(np.ptp(truth, axis=0) > 0, ss_tot, 0.0)))
+
+
+def _over(num: np.ndarray, den: np.ndarray) -> np.ndarray:
+  """num / den, NaN where den is 0 (a metric undefined there, not infinite)."""
+  num, den = np.asarray(num, float), np.asarray(den, float)
+  return np.divide(num, den, out=np.full(np.broadcast(num, den).shape, np.nan), where=den > 0)
 
 
 def median_pct_error(pred: np.ndarray, truth: np.ndarray, threshold: float) -> np.ndarray:
@@ -46,9 +54,10 @@ def wrench_median_pct(pred: np.ndarray, truth: np.ndarray, force: float = 0.2,
 
 
 def worst_pct_of_range(pred: np.ndarray, truth: np.ndarray) -> np.ndarray:
-  """Largest |pred - truth| as % of the range of the truth, per column (shell paper Table I)."""
+  """Largest |pred - truth| as % of the range of the truth, per column (shell paper Table I);
+  NaN where the truth does not vary."""
   pred, truth = _columns(pred), _columns(truth)
-  return 100.0 * np.max(np.abs(pred - truth), axis=1) / np.ptp(truth, axis=1)
+  return 100.0 * _over(np.max(np.abs(pred - truth), axis=1), np.ptp(truth, axis=1))
 
 
 def share_range(hits: np.ndarray, n: np.ndarray, seed: int, level: float = 0.9,
@@ -119,7 +128,8 @@ def scored(group: str, by_method: dict, spread: dict | None = None) -> list[Row]
     for ax, per in axes.items():
       for k, v in per.items():
         sd = spread[m][ax][k] if spread and m in spread else float("nan")
-        out.append(Row(group, m, ax, k, float(v), float(sd)))
+        # None: a share of no samples (e.g. coverage beyond the box where none lie)
+        out.append(Row(group, m, ax, k, float("nan") if v is None else float(v), float(sd)))
   return out
 
 

@@ -226,18 +226,23 @@ def unwrap(x: np.ndarray, period: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def at_rails(x: np.ndarray, rails: Optional[tuple[float, float]],
-             others: Optional[np.ndarray] = None) -> np.ndarray:
+             others: Optional[np.ndarray] = None,
+             spans: Optional[np.ndarray] = None) -> np.ndarray:
   """(N, C) bool: the samples at a rail. Given rails: at or beyond them. Otherwise a
   channel's minimum or maximum over the recording, where it is held `RAIL_HOLD` samples in
   a row while the load moves: some other column (another input, or a target in `others`
-  (N, A)) sweeps over `RAIL_MOVE` of its range during that run. A held extreme with
-  everything else held too is a static load or a sensor at rest (a logger tared to exactly
-  zero), not a clipped one; a single column with nothing beside it is never called
-  railed unless the rails are given."""
+  (N, A)) sweeps over `RAIL_MOVE` of its range during that run, the range `spans` (C + A,)
+  over every recording of the fit (None: this recording's). A held extreme with everything
+  else held too is a static load or a sensor at rest (a logger tared to exactly zero), not
+  a clipped one; a single column with nothing beside it is never called railed unless the
+  rails are given. The range is every recording's because a recording of one static load
+  spans its noise alone: a count of it would "move" past a tenth of that (measured on a
+  printed F/T sensor's 60 recordings of one load each, 200 samples in 38-496 of a 10-bit
+  ADC: every channel of most recordings was called railed)."""
   if rails is not None:
     return (x <= rails[0]) | (x >= rails[1])
   every = x if others is None else np.column_stack([x, others])
-  span = np.ptp(every, axis=0)
+  span = np.ptp(every, axis=0) if spans is None else np.asarray(spans, float)
   mask = np.zeros(x.shape, bool)
   for c in range(x.shape[1]):
     rest = np.delete(np.arange(every.shape[1]), c)
@@ -358,28 +363,45 @@ def _rails_said(table, rail: np.ndarray, names: list[str], dropped: bool) -> lis
           + (" (dropped)" if dropped else ": --drop-rails removes them")]
 
 
+def _read(tables, inputs, targets, periods) -> tuple[list[str], list, np.ndarray]:
+  """(the jump lines, each recording's (inputs unwrapped, targets or None), (C + A,) the
+  columns' ranges over every recording)."""
+  names = tables[0].names
+  said, read = [], []
+  for table in tables:
+    x = table.data[:, inputs]
+    y = None if targets is None else table.data[:, targets]
+    said += _jumps_said(table, x, y, [names[i] for i in inputs], periods)
+    read.append((unwrap(x, periods)[0] if periods is not None else x, y))
+  every = [x if y is None else np.column_stack([x, y]) for x, y in read]
+  return said, read, (np.max([e.max(axis=0) for e in every], axis=0)
+                      - np.min([e.min(axis=0) for e in every], axis=0))
+
+
 def apply(tables, inputs: Sequence[int], targets: Optional[Sequence[int]], steps: Steps,
-          periods: Optional[np.ndarray] = None) -> Prepared:
+          periods: Optional[np.ndarray] = None, spans: Optional[np.ndarray] = None
+          ) -> Prepared:
   """Runs the steps on each recording (a `csvfile.Table` each) and stacks them.
 
   Args:
     inputs, targets: column indices (targets None: inputs only, as for `predict`).
     periods: (C,) the unwrap periods an estimator kept (None: 2**unwrap_bits times each
       channel's least significant bit in these recordings).
+    spans: (C + A,) ranges the columns are known to span (an estimator's training ranges),
+      against which the rail detector measures a load moving, when wider than these
+      recordings' own (`at_rails`).
   """
   names = tables[0].names
-  said, xs, ys, recs, kept = [], [], [], [], []
+  xs, ys, recs, kept = [], [], [], []
   start = 0
   if (steps.unwrap_bits is not None or steps.unwrap_period is not None) and periods is None:
     periods = _periods(tables, inputs, steps)
-  for k, table in enumerate(tables):
-    x = table.data[:, inputs]
-    y = None if targets is None else table.data[:, targets]
+  said, read, seen = _read(tables, inputs, targets, periods)
+  # a load moves against the columns' ranges over every recording (`at_rails`)
+  spans = seen if spans is None else np.maximum(seen, spans)
+  for k, (table, (x, y)) in enumerate(zip(tables, read)):
     keep = np.ones(len(x), bool)
-    said += _jumps_said(table, x, y, [names[i] for i in inputs], periods)
-    if periods is not None:
-      x, undone = unwrap(x, periods)
-    rail = at_rails(x, steps.rails, y)
+    rail = at_rails(x, steps.rails, y, spans)
     said += _rails_said(table, rail, [names[i] for i in inputs], steps.drop_rails)
     if steps.drop_rails:
       keep &= ~rail.any(axis=1)

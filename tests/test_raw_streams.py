@@ -161,6 +161,75 @@ def test_static_loads_and_a_tared_logger_are_no_rail_and_no_wrap():
   assert ready.said == ()
 
 
+def test_recordings_of_one_static_load_each_are_at_no_rail():
+  """A printed F/T sensor's layout: each recording one load held 200 samples, a count of
+  noise on the sensor and a little on the reference. Within a recording every column spans
+  its noise alone; against that a count "moves", so the recording's own ranges called most
+  channels railed. Against every recording's ranges nothing moves: no rail line. A
+  recording where the load sweeps and a channel clips is still found beside them."""
+  rng = np.random.default_rng(8)
+  states = rng.uniform(-10, 10, (20, 3))
+  mix = rng.normal(size=(3, 4))
+  loads = np.repeat(states, 200, axis=0) + rng.normal(0, 0.002, (4000, 3))  # the logger's noise
+  # quieter than a count: most channels hold one value through their recording
+  counts = np.round(500 + np.repeat(states @ mix * 40 / np.abs(mix).sum(axis=0), 200, axis=0)
+                    + rng.normal(0, 0.15, (4000, 4)))
+  tables = [csvfile.Table(tuple("abcdFGH"), ("",) * 7,
+                          np.column_stack([counts, loads])[k:k + 200], f"state{k // 200}.csv")
+            for k in range(0, len(counts), 200)]
+  assert sum(prepare.at_rails(t.data[:, :4], None, t.data[:, 4:]).any() for t in tables) > 10
+  ready = prepare.apply(tables, [0, 1, 2, 3], [4, 5, 6], prepare.Steps())
+  assert not any("rail" in line for line in ready.said), ready.said
+  sweep = np.column_stack([np.linspace(-10, 10, 400)] * 3)
+  clipped = np.column_stack([np.minimum(500 + 60 * sweep[:, 0], 1023.0), 500 + 20 * sweep])
+  clipped[:, 0] = np.minimum(500 + 80 * sweep[:, 0], 950.0)  # at the top from 5.6 N on
+  moving = csvfile.Table(tuple("abcdFGH"), ("",) * 7, np.column_stack([clipped, sweep]),
+                         "sweep.csv")
+  ready = prepare.apply(tables + [moving], [0, 1, 2, 3], [4, 5, 6], prepare.Steps())
+  rails = [line for line in ready.said if "rail" in line]
+  held = int(np.sum(clipped[:, 0] == 950.0))
+  assert rails == [f"sweep.csv: at a rail: a {held} of 400 samples ({held / 400:.1%}): "
+                   f"--drop-rails removes them"]
+
+
+def test_fit_and_evaluate_on_static_recordings_say_no_rail_and_no_infinite_metric(tmp_path,
+                                                                                 capsys):
+  """One static load per file, as a user's F/T logger writes them: `fit` and `evaluate`
+  print no rail line (evaluate judges a load's movement against the training ranges, its
+  one file spanning its noise alone); on a file whose truth holds one value the metrics
+  that scale by its spread are NaN, said in one line, not infinite, and a file with every
+  input inside the training box has no coverage beyond it (NaN in metrics.csv)."""
+  import json
+  import warnings
+  rng = np.random.default_rng(8)
+  mix = rng.normal(size=(3, 4))
+  names = ["s1", "s2", "s3", "s4", "Fx", "Fy", "Fz"]
+  for k in range(12):
+    load = rng.uniform(-10, 10, 3) if k < 11 else np.zeros(3)  # the last at rest, inside
+    counts = np.round(500 + load @ mix * 40 / np.abs(mix).sum(axis=0)
+                      + rng.normal(0, 0.15, (200, 4)))
+    if k == 11:  # at rest: one channel holds, another flickers a count
+      counts[:, 0], counts[:, 1] = 500, 500 + np.arange(200) % 2
+    csvfile.write(tmp_path / f"state{k:02d}.csv", names, np.column_stack(
+        [counts, np.tile(load, (200, 1))]))
+  with warnings.catch_warnings():
+    warnings.simplefilter("error", RuntimeWarning)  # no division by a zero range
+    assert cli.main(["fit", "--csv", str(tmp_path / "state0*.csv"), str(tmp_path / "state10.csv"),
+                     "--inputs", "s*", "--targets", "Fx,Fy,Fz", "--method", "ls",
+                     "--out", str(tmp_path / "e.npz")]) == 0
+    fitted = capsys.readouterr().out
+    assert cli.main(["evaluate", str(tmp_path / "e.npz"), "--csv", str(tmp_path / "state11.csv"),
+                     "--out", str(tmp_path / "ev")]) == 0
+  said = capsys.readouterr().out
+  assert "rail" not in fitted and "rail" not in said, (fitted, said)
+  assert "Fx, Fy, Fz: the truth holds one value in this file (a static load)" in said
+  got = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
+  assert np.isfinite(got["Fx"]["rmse"]) and got["Fx"]["interval_coverage_out_of_box_pct"] is None
+  rows = (tmp_path / "ev" / "metrics.csv").read_text().splitlines()
+  assert any(",Fx,nrmse_pct,nan" in r for r in rows) and \
+      any(",Fx,interval_coverage_out_of_box_pct,nan" in r for r in rows), rows[:12]
+
+
 def test_a_rail_while_the_load_moves_is_found_beside_a_held_state():
   """The true case beside the false one: one channel clips at 1023 while the others (and
   the load) keep moving; another holds a state while everything holds."""

@@ -450,9 +450,16 @@ def new_recording(est, args, targets: bool = False):
   record = est.info.settings.get("prepare") or {}
   periods = record.get("unwrap_periods")
   tare = prepare.Tare.from_json(record.get("tare"))
+  info = est.info
+  # one recording of one static load spans its noise alone: a load moves against the
+  # training ranges (`prepare.at_rails`)
+  spans = np.asarray(info.input_hi, float)[:len(ins)] - np.asarray(info.input_lo, float)[:len(ins)]
+  if outs is not None:
+    spans = None if info.output_lo is None else np.concatenate(
+        [spans, np.asarray(info.output_hi, float) - np.asarray(info.output_lo, float)])
   ready = prepare.apply([table], ins, outs, prepare.Steps(None, args.rails, args.drop_rails,
                                                           tare),
-                        None if periods is None else np.asarray(periods))
+                        None if periods is None else np.asarray(periods), spans)
   for line in table.cleaned + ready.said:
     print(line)
   return table, ready

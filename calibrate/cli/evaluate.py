@@ -112,6 +112,9 @@ def _evaluate(args, out) -> int:
           f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}"
           + (f" {r['interval_coverage_pct']:11.1f}%" if cover else "")
           + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
+  if (held := [n for j, n in enumerate(names) if np.ptp(truth[:, j]) == 0]):
+    print(f"{', '.join(held)}: the truth holds one value in this file (a static load): NRMSE, "
+          f"R2 and worst % scale by its spread and are undefined (nan); RMSE holds")
   if not cover:
     print("no interval: the estimator was fitted without grouped cross-validation")
   else:
