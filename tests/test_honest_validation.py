@@ -305,6 +305,33 @@ def test_the_command_fits_several_recordings_and_reports_coverage(tmp_path, caps
   assert all("truth_outside_training_pct" in got[ax] for ax in ("Fx", "Fy", "Fz"))
 
 
+def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, capsys):
+  """`evaluate --csv` with several files (a glob): each its own recording, its memory's
+  filters started afresh, so the pooled RMSE is the files' one by one, sample-weighted
+  (a memory carried from one file into the next would break it); the in-box coverage's
+  spread over the recordings it rests on is printed and kept."""
+  _recording_files(tmp_path, 8, 300)
+  assert cli.main(["fit", "--csv", str(tmp_path / "run[0-5].csv"), "--inputs", "s*",
+                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
+                   "--out", str(tmp_path / "e.npz")]) == 0
+  capsys.readouterr()
+  got = {}
+  for name, csvs in (("6", ["run6.csv"]), ("7", ["run7.csv"]), ("both", ["run[67].csv"])):
+    assert cli.main(["evaluate", str(tmp_path / "e.npz"), "--csv",
+                     *(str(tmp_path / c) for c in csvs), "--out", str(tmp_path / name)]) == 0
+    got[name] = json.loads((tmp_path / name / "metrics.json").read_text())
+    said = capsys.readouterr().out
+  assert got["both"]["recordings"] == 2 and got["both"]["samples"] == 600
+  for ax in ("Fx", "Fy", "Fz"):
+    one_by_one = np.sqrt((got["6"]["results"][ax]["rmse"] ** 2 * got["6"]["samples"]
+                          + got["7"]["results"][ax]["rmse"] ** 2 * got["7"]["samples"]) / 600)
+    assert got["both"]["results"][ax]["rmse"] == pytest.approx(one_by_one, rel=1e-12)
+  assert "on 600 samples of 2 recordings" in said
+  assert "the coverage in the box rests on 2 recordings" in said
+  lo = got["both"]["results"]["Fx"]["interval_coverage_in_box_lo90_pct"]
+  assert 0 <= lo <= got["both"]["results"]["Fx"]["interval_coverage_in_box_hi90_pct"] <= 100
+
+
 def _recording_files(folder, count, n, name="run{}.csv", seed=9):
   """`count` CSV files of `_recordings`' sensor, `n` rows each, with a time column."""
   rng = np.random.default_rng(seed)

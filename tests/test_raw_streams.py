@@ -222,7 +222,7 @@ def test_fit_and_evaluate_on_static_recordings_say_no_rail_and_no_infinite_metri
                      "--out", str(tmp_path / "ev")]) == 0
   said = capsys.readouterr().out
   assert "rail" not in fitted and "rail" not in said, (fitted, said)
-  assert "Fx, Fy, Fz: the truth holds one value in this file (a static load)" in said
+  assert "Fx, Fy, Fz: the truth holds one value here (a static load)" in said
   got = json.loads((tmp_path / "ev" / "metrics.json").read_text())["results"]
   assert np.isfinite(got["Fx"]["rmse"]) and got["Fx"]["interval_coverage_out_of_box_pct"] is None
   rows = (tmp_path / "ev" / "metrics.csv").read_text().splitlines()

@@ -43,10 +43,16 @@ def cleaning_args(p: argparse.ArgumentParser) -> None:
                       "keeps the first (counted); default: refuse the file")
 
 
-def recording_args(p: argparse.ArgumentParser) -> None:
-  """The options of the commands that apply an estimator to a recording."""
+def recording_args(p: argparse.ArgumentParser, several: bool = False) -> None:
+  """The options of the commands that apply an estimator to a recording (`several`: to
+  one or more, each its own recording)."""
   p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
-  p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
+  if several:
+    p.add_argument("--csv", required=True, nargs="+", type=cli.path_arg,
+                   help="the recordings: one or more files or globs ('test/*.csv'), each its "
+                        "own recording (tared and filtered afresh), scored together")
+  else:
+    p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   cleaning_args(p)
   rails_args(p)
@@ -435,11 +441,16 @@ def with_preparation(est, args):
 
 
 def new_recording(est, args, targets: bool = False):
-  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recording read and
-  prepared as the estimator's training recordings were (its unwrap and tare), with the
-  estimator's outputs as targets when `targets` (tared by the same rule)."""
-  table = csvfile.read(args.csv, args.time_column, drop_nan=args.drop_nan,
-                       dedupe=args.dedupe)
+  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recording (or, a list
+  in `args.csv`, the recordings, as one table) read and prepared as the estimator's
+  training recordings were (its unwrap and tare, per recording), with the estimator's
+  outputs as targets when `targets` (tared by the same rule)."""
+  cleaning = dict(drop_nan=args.drop_nan, dedupe=args.dedupe)
+  if isinstance(args.csv, list):
+    tables, table, _ = csvfile.read_many(args.csv, args.time_column, **cleaning)
+  else:
+    table = csvfile.read(args.csv, args.time_column, **cleaning)
+    tables = [table]
   names = est.info.inputs if est.info is not None else None
   if names is None:
     raise errors.DataError(f"{args.command}: the estimator holds no input names (fitted "
@@ -457,8 +468,8 @@ def new_recording(est, args, targets: bool = False):
   if outs is not None:
     spans = None if info.output_lo is None else np.concatenate(
         [spans, np.asarray(info.output_hi, float) - np.asarray(info.output_lo, float)])
-  ready = prepare.apply([table], ins, outs, prepare.Steps(None, args.rails, args.drop_rails,
-                                                          tare),
+  ready = prepare.apply(tables, ins, outs, prepare.Steps(None, args.rails, args.drop_rails,
+                                                        tare),
                         None if periods is None else np.asarray(periods), spans)
   for line in table.cleaned + ready.said:
     print(line)

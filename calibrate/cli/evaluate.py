@@ -11,7 +11,7 @@ from util import cli, errors, files
 
 def add_parser(sub) -> None:
   p = sub.add_parser("evaluate", help="the papers' metrics and figures on held-out data")
-  common.recording_args(p)
+  common.recording_args(p, several=True)
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
                  help="folder for metrics.csv, metrics.json and figures (evaluation/)")
   p.add_argument("--level", type=float, default=0.95,
@@ -29,10 +29,12 @@ def scores(pred: np.ndarray, truth: np.ndarray, names, units) -> dict:
   return out
 
 
-def interval_scores(info, x, truth, pred, level: float, result: dict) -> np.ndarray:
+def interval_scores(info, x, truth, pred, level: float, result: dict):
   """The interval's half-width and coverage per output into `result`, overall, with the
-  inputs inside the training box and beyond it; returns (N,) True beyond it."""
+  inputs inside the training box and beyond it; returns ((N,) True beyond it, (N, A) True
+  inside the interval, or None without one)."""
   far = info.distance(x) > 0  # inputs beyond the training box: the interval widens there
+  inside = None
   if info.interval_abs is not None:  # the interval fit promised, against what it covers here
     inside = np.abs(truth - pred) <= info.half_width_at(level, x)
     half = info.half_width(level)
@@ -44,7 +46,26 @@ def interval_scores(info, x, truth, pred, level: float, result: dict) -> np.ndar
       result[n]["interval_coverage_out_of_box_pct"] = float(100 * inside[far, j].mean()) \
           if far.any() else None
       result[n]["inputs_out_of_box_pct"] = float(100 * far.mean())
-  return far
+  return far, inside
+
+
+def over_recordings_line(result: dict, names, inside, far, recording, seed: int):
+  """The in-box coverage's spread over the recordings it rests on (`metrics.share_range`,
+  90 %; into `result`): a recording's samples share one draw of its offset, so the
+  coverage is a share over recordings, not over samples. None with fewer than two."""
+  from calibrate import metrics
+  groups = [(~far) & (recording == g) for g in np.unique(recording)]
+  hits = np.array([inside[g].sum(axis=0) for g in groups])
+  n = np.array([g.sum() for g in groups])
+  lo, hi = metrics.share_range(hits, n, seed)
+  if not np.isfinite(lo).all():
+    return None
+  for j, name in enumerate(names):
+    result[name]["interval_coverage_in_box_lo90_pct"] = float(lo[j])
+    result[name]["interval_coverage_in_box_hi90_pct"] = float(hi[j])
+  return (f"the coverage in the box rests on {(n > 0).sum()} recordings (a recording's "
+          f"samples share one draw of its offset): resampling them, 90 % of its values lie in "
+          + ", ".join(f"{name} {a:.1f}-{b:.1f} %" for name, a, b in zip(names, lo, hi)))
 
 
 def question_lines(info, names, units) -> None:
@@ -80,6 +101,23 @@ def one_draw_line(info, level: float) -> str | None:
           "judge it over several test recordings' evaluations")
 
 
+def print_table(result: dict, names, units, truth: np.ndarray, level: float,
+                cover: bool) -> None:
+  """The metrics per output, and which outputs' truth holds one value (a static load)."""
+  print(f"{'output':8s} {'RMSE':>10s} {'NRMSE %':>8s} {'R2 %':>8s} {'median %':>9s} "
+        f"{'worst %':>8s}" + (f" {f'in {level:.0%} int.':>12s}" if cover else "")
+        + f" {'truth beyond fit %':>18s}")
+  for n, u in zip(names, units):
+    r = result[n]
+    print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
+          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}"
+          + (f" {r['interval_coverage_pct']:11.1f}%" if cover else "")
+          + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
+  if (held := [n for j, n in enumerate(names) if np.ptp(truth[:, j]) == 0]):
+    print(f"{', '.join(held)}: the truth holds one value here (a static load): NRMSE, R2 "
+          f"and worst % scale by its spread and are undefined (nan); RMSE holds")
+
+
 def run(args) -> int:
   # two evaluations never fill one folder
   return files.holding(args.out, "--out", lambda out: _evaluate(args, out))
@@ -92,45 +130,42 @@ def _evaluate(args, out) -> int:
   est = estimators.Estimator.load(args.estimator)
   table, ready = common.new_recording(est, args, targets=True)
   x, truth = ready.x, ready.y  # the truth tared by the same rule, as in training
-  pred = est.predict(x, **common.stream_of(est, table, ready))
+  # each file its own recording: a memory's filters and tares start afresh in each
+  pred = est.predict(x, segments=ready.recording, **common.stream_of(est, table, ready))
+  recordings = len(np.unique(ready.recording))
+  several = recordings > 1
   names, units = est.info.outputs, est.info.output_units
   result = scores(pred, truth, names, units)
   info = est.info
-  far = interval_scores(info, x, truth, pred, args.level, result)
+  far, inside = interval_scores(info, x, truth, pred, args.level, result)
   if info.output_lo is not None:  # truth beyond what the fit saw: every method under-reaches
     beyond = (truth < info.output_lo) | (truth > info.output_hi)
     for j, n in enumerate(names):
       result[n]["truth_outside_training_pct"] = float(100 * beyond[:, j].mean())
-  print(f"{est.kind.value} on {len(x)} samples of {args.csv}")
+  print(f"{est.kind.value} on {len(x)} samples of {table.path}")
   cover = info.interval_abs is not None
-  print(f"{'output':8s} {'RMSE':>10s} {'NRMSE %':>8s} {'R2 %':>8s} {'median %':>9s} "
-        f"{'worst %':>8s}" + (f" {f'in {args.level:.0%} int.':>12s}" if cover else "")
-        + f" {'truth beyond fit %':>18s}")
-  for n, u in zip(names, units):
-    r = result[n]
-    print(f"{n:8s} {r['rmse']:10.4g} {r['nrmse_pct']:8.2f} {r['r2_pct']:8.2f} "
-          f"{r['median_pct']:9.2f} {r['worst_pct']:8.2f}"
-          + (f" {r['interval_coverage_pct']:11.1f}%" if cover else "")
-          + f" {r.get('truth_outside_training_pct', float('nan')):18.1f}   RMSE in {u}")
-  if (held := [n for j, n in enumerate(names) if np.ptp(truth[:, j]) == 0]):
-    print(f"{', '.join(held)}: the truth holds one value in this file (a static load): NRMSE, "
-          f"R2 and worst % scale by its spread and are undefined (nan); RMSE holds")
+  print_table(result, names, units, truth, args.level, cover)
   if not cover:
     print("no interval: the estimator was fitted without grouped cross-validation")
   else:
     print(coverage_line(result, names, far, args.level))
-    if (line := one_draw_line(info, args.level)) is not None:
+    line = over_recordings_line(result, names, inside, far, ready.recording,
+                                info.settings.get("seed", 0)) if several \
+        else one_draw_line(info, args.level)
+    if line is not None:
       print(line)
   question_lines(info, names, units)
-  metrics = {"estimator": str(args.estimator), "csv": str(args.csv), "samples": len(x),
+  metrics = {"estimator": str(args.estimator), "csv": list(map(str, args.csv)),
+             "recordings": recordings, "samples": len(x),
              "method": est.kind.value, "results": result}
   text = files.json_text(metrics, indent=1)
   files.write_text(out / "metrics.json", text)
   files.write_text(out / "metrics.csv", metrics_lib.csv_text(
       metrics_lib.scored("results", {est.kind.value: result})))
-  t = table.seconds(args.time_column)
+  t = None if several else table.seconds(args.time_column)  # each file's clock restarts
   t = np.arange(len(x), dtype=float) if t is None else t[ready.rows]
-  label = f"calibrate evaluate {args.estimator.name} on {args.csv.name}"
+  label = f"calibrate evaluate {args.estimator.name} on " + (
+      f"{recordings} recordings" if several else pathlib.Path(table.path).name)
   figures.save(figures.over_time(t, truth, {est.kind.value: pred}, names, "/".join(
       dict.fromkeys(units)), benchmark=label, seed=est.info.settings.get("seed", 0)),
       out, "over_time")
