@@ -238,7 +238,8 @@ def at_rails(x: np.ndarray, rails: Optional[tuple[float, float]],
   rails are given. The range is every recording's because a recording of one static load
   spans its noise alone: a count of it would "move" past a tenth of that (measured on a
   printed F/T sensor's 60 recordings of one load each, 200 samples in 38-496 of a 10-bit
-  ADC: every channel of most recordings was called railed)."""
+  ADC: 55 of them had channels called railed, 151 of their 480; against every recording's
+  ranges, none)."""
   if rails is not None:
     return (x <= rails[0]) | (x >= rails[1])
   every = x if others is None else np.column_stack([x, others])
