@@ -170,22 +170,23 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
 
 
 def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_offsets():
-  """`test_bias`: recordings offset by +-a about a common b give the mean b, and z = b over
+  """`calibrate.info.common_bias`: recordings offset by +-a about a common b give the mean b, and z = b over
   RMS(held-out offsets) x sqrt((1/R + 1/G) (G - 1)/G); recordings drawn about zero give
   z = 0; the line names the axes beyond Student's t's 97.5 % point at G - 1 degrees of
   freedom (scipy: 12.71 at 1)."""
   from benchmarks.calibrators import real_recordings as rr
+  from calibrate import info
   rng = np.random.default_rng(0)
   rec = np.repeat(np.arange(4), 50)
   noise = rng.standard_normal((200, 2))
   noise -= np.array([noise[rec == g].mean(axis=0) for g in range(4)])[rec]  # zero per recording
   shift = np.array([[1.0, 3.0], [-1.0, -3.0], [1.0, 3.0], [-1.0, -3.0]])
   offsets = np.array([[2.0, 0.5], [-2.0, -0.5]])  # RMS 2 and 0.5
-  got = rr.test_bias(noise + shift[rec] + [1.5, 0.0], rec, offsets)
+  got = info.common_bias(noise + shift[rec] + [1.5, 0.0], rec, offsets)
   np.testing.assert_allclose(got["test_common_bias"], [1.5, 0.0], atol=1e-12)
   np.testing.assert_allclose(got["test_bias_z"], [1.5 / (2.0 * np.sqrt(0.75 / 2)), 0.0],
                              atol=1e-12)
-  assert "test_bias_z" not in rr.test_bias(noise, rec, None)  # no held-out offsets, no z
+  assert "test_bias_z" not in info.common_bias(noise, rec, None)  # no held-out offsets, no z
   assert got["test_bias_dof"] == 1
   line = rr.bias_lines({"auto": {**got, "test_bias_z": [13.0, 4.0],
                                  "in_box_by_recording": [50, 50, 50, 50]}}, ("Fx", "Fy"))[0]
@@ -205,7 +206,7 @@ def test_the_test_bias_z_of_recordings_drawn_alike_is_students_t():
   4,000 draws (over RMS(offsets)/sqrt(R) and beyond t at G, as it was, 11.1 % at G = R = 5;
   simulated, 200,000 draws)."""
   import scipy.stats
-  from benchmarks.calibrators import real_recordings as rr
+  from calibrate import info
   rng = np.random.default_rng(7)
   g, r, n = 5, 5, 4000
   edge = scipy.stats.t.ppf(0.975, g - 1)
@@ -214,6 +215,6 @@ def test_the_test_bias_z_of_recordings_drawn_alike_is_students_t():
   for _ in range(n):
     train, test = rng.normal(size=g), rng.normal(size=r)
     held = train - (train.sum() - train) / (g - 1)  # each less the other recordings' mean
-    got = rr.test_bias((test - train.mean())[rec][:, None], rec, held[:, None])
+    got = info.common_bias((test - train.mean())[rec][:, None], rec, held[:, None])
     far += abs(got["test_bias_z"][0]) > edge
   assert abs(far / n - 0.05) < 3 * np.sqrt(0.05 * 0.95 / n), far / n

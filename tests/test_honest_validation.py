@@ -309,7 +309,9 @@ def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, 
   """`evaluate --csv` with several files (a glob): each its own recording, its memory's
   filters started afresh, so the pooled RMSE is the files' one by one, sample-weighted
   (a memory carried from one file into the next would break it); the in-box coverage's
-  spread over the recordings it rests on is printed and kept."""
+  spread over the recordings it rests on is printed and kept, and their common mean error
+  with its z over the held-out recordings' offsets, which names an output shifted in
+  every test file."""
   _recording_files(tmp_path, 8, 300)
   assert cli.main(["fit", "--csv", str(tmp_path / "run[0-5].csv"), "--inputs", "s*",
                    "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
@@ -330,6 +332,23 @@ def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, 
   assert "the coverage in the box rests on 2 recordings" in said
   lo = got["both"]["results"]["Fx"]["interval_coverage_in_box_lo90_pct"]
   assert 0 <= lo <= got["both"]["results"]["Fx"]["interval_coverage_in_box_hi90_pct"] <= 100
+  # their common mean error against the held-out recordings' offsets; a planted shift of
+  # Fx in both (a new load range, a moved fixture) is named
+  assert "the estimator's mean error common to the 2 test recordings (in the box)" in said
+  assert abs(got["both"]["results"]["Fx"]["test_bias_z"]) < 2.57  # t(0.975) at 6 - 1
+  shift = 50 * got["both"]["results"]["Fx"]["rmse"]
+  for k in (6, 7):
+    table = csvfile.read(tmp_path / f"run{k}.csv")
+    data = table.data.copy()
+    data[:, table.names.index("Fx")] += shift
+    csvfile.write(tmp_path / f"moved{k}.csv", list(table.names), data)
+  assert cli.main(["evaluate", str(tmp_path / "e.npz"), "--csv", str(tmp_path / "moved*.csv"),
+                   "--out", str(tmp_path / "moved")]) == 0
+  line = capsys.readouterr().out.split("common to the 2 test recordings")[1].splitlines()[0]
+  assert "(one time in twenty by chance) on Fx" in line, line
+  moved = json.loads((tmp_path / "moved" / "metrics.json").read_text())["results"]
+  assert moved["Fx"]["test_common_bias"] == pytest.approx(  # the error is estimate - truth
+      got["both"]["results"]["Fx"]["test_common_bias"] - shift, rel=1e-9)
 
 
 def _recording_files(folder, count, n, name="run{}.csv", seed=9):

@@ -69,7 +69,7 @@ SESSIONS = 5
 # covered 99.8-100 %). The test paths are not the cause: new sessions' Z offsets (LS, seeds
 # 0-9) were 1.43 N RMS on the test paths, 1.30 N on the training paths, the held-out
 # sessions' 1.16 N but 0.78 N in the median draw: five sessions' spread is mostly small and
-# now and then large (`test_bias`). At seed 3, over 150 random splits of 15 sessions into 5
+# now and then large (`calibrate.info.common_bias`). At seed 3, over 150 random splits of 15 sessions into 5
 # held out and 5 new, t with 5 degrees of freedom times the held-out spread covered 89.3 %
 # of the new sessions' Z offsets (X 94.1, Y 94.4 %). With a recording's mean error weighed
 # in auto's choice by the loads' share between recordings (`calibrate.select.model_error`;
@@ -353,7 +353,7 @@ def _ours(ctx, d: Data) -> dict:
   """This project's methods, with grouped cross-validation; and each fitted as the LSANN paper
   splits (single samples) for the interval it would have promised."""
   import warnings
-  from calibrate import estimators, methods, splits
+  from calibrate import estimators, info, methods, splits
   from calibrate.parts import mlp
   s = ctx.settings
   groups = splits.groups(len(d.x), "recordings", d.rec)
@@ -405,7 +405,8 @@ def _ours(ctx, d: Data) -> dict:
         r["in_box_inside_by_recording"] = [np.bincount(labels, inside[:, j] & ~far).tolist()
                                            for j in range(len(d.axes))]
         _coverage_range(r, r["in_box_inside_by_recording"], r["in_box_by_recording"], ctx.seed)
-        r.update(test_bias((pred - d.yt)[~far], d.rect[~far], auto.info.interval_offsets))
+        r.update(info.common_bias((pred - d.yt)[~far], d.rect[~far],
+                                  auto.info.interval_offsets))
       out[name] = r
   return out
 
@@ -516,7 +517,7 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
   fit seconds averaged over the draws; coverage in the box, beyond it and in all over every
   draw's test samples there (each draw weighed by its test samples in that part), and its
   spread over the draws (resampled with `seed`, each draw's test recordings together: they
-  share its estimator's own error, its loads and its paths; `test_bias`)."""
+  share its estimator's own error, its loads and its paths; `calibrate.info.common_bias`)."""
   out = {}
   for m in draws[0]:
     runs = [d[m] for d in draws]
@@ -537,7 +538,7 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
       r["test_samples"] = int(n.sum())
     if "in_box_by_recording" in runs[0]:
       # a draw's test recordings run the same loads and paths, and so share a bias of their
-      # own (`test_bias`): over draws the unit resampled is the draw, its recordings together
+      # own (`calibrate.info.common_bias`): over draws the unit resampled is the draw, its recordings together
       r["in_box_by_draw"] = [float(np.sum(x["in_box_by_recording"])) for x in runs]
       r["in_box_inside_by_draw"] = [[float(np.sum(x["in_box_inside_by_recording"][j]))
                                      for x in runs] for j in range(len(r["nrmse_pct"]))]
@@ -621,42 +622,8 @@ def _coverage_range(r: dict, inside, n, seed: int) -> None:
   r["coverage_in_box_range_pct"] = [lo.tolist(), hi.tolist()]
 
 
-def test_bias(error: np.ndarray, recording: np.ndarray, offsets) -> dict:
-  """The mean error (A,) common to the test recordings, from in-box errors (N, A) and their
-  test recording (N,), and it over the spread that the held-out recordings' offsets (G, A)
-  allow it where the test recordings are drawn as the training ones were (a z-score, A).
-
-  The R test recordings share one estimator, whose own offset is an estimate from the G
-  training recordings: their common error is the mean of their R offsets less that
-  estimate, which spreads as RMS(offsets) x sqrt((1/R + 1/G) (G - 1)/G)
-  (`calibrate.info.offset_spread`, the interval's between part at R = 1). Over it, z is
-  Student's t with G - 1 degrees of freedom: beyond its 97.5 % point one time in twenty,
-  its RMS over draws sqrt((G - 1)/(G - 3)), 1.41 from 5. Over RMS(offsets)/sqrt(R) alone,
-  as it was, recordings drawn alike gave z far out: measured on the footpad (LS, seed 3, 150
-  random splits of 15 sessions of the training paths into 5 to train and 5 to test), its
-  RMS X 1.71, Y 2.32, Z 2.06 against the 1.29 then expected; on this scale 1.35, 1.83, 1.63
-  against 1.41.
-  Nor do the footpad's test paths differ much from its training paths: over seeds 0-9
-  (LS), the RMS of new sessions' Z offsets was 1.30 N on the training paths, 1.43 N on the
-  test paths, the held-out sessions' 1.16 N (0.78 N in the median draw, 2.69 N in one:
-  five recordings' spread is mostly small and now and then large); with `thermal_drift`
-  off every session's offset was 0.00 N (seed 3)."""
-  from calibrate import info
-  if not len(error):
-    return {}
-  means = info.group_means(error, recording)
-  common = means.mean(axis=0)
-  out = {"test_common_bias": common.tolist()}
-  if offsets is not None and len(offsets) >= 2:
-    spread = info.offset_spread(offsets, len(means))
-    out["test_bias_z"] = np.where(spread > 0, common / np.where(spread > 0, spread, 1.0),
-                                  np.nan).tolist()
-    out["test_bias_dof"] = len(offsets) - 1
-  return out
-
-
 def bias_lines(results: dict, axes, draws: list[dict] = ()) -> list[str]:
-  """auto's test bias (`test_bias`), one draw's or, with `draws`, its z's RMS over them."""
+  """auto's test bias (`calibrate.info.common_bias`), one draw's or, with `draws`, its z's RMS over them."""
   import scipy.stats
   if draws:
     runs = [d["auto"] for d in draws if "test_bias_z" in d.get("auto", {})]
@@ -669,23 +636,12 @@ def bias_lines(results: dict, axes, draws: list[dict] = ()) -> list[str]:
     return [f"auto's test bias over the {len(z)} draws, RMS of its z per axis ({expect} where "
             f"the test recordings are drawn as the {dof + 1} held-out ones): " + " ".join(
                 f"{a}: {v:.1f}" for a, v in zip(axes, rms))]
+  from calibrate import info
   r = results.get("auto", {})
   if "test_bias_z" not in r:
     return []
-  z = np.array(r["test_bias_z"], float)
-  edge = float(scipy.stats.t.ppf(0.975, r["test_bias_dof"]))
   n = sum(k > 0 for k in r.get("in_box_by_recording", []))
-  line = (f"auto's mean error common to the {n} test recordings (in the box), per axis: "
-          + " ".join(f"{a}: {v:.3g}" for a, v in zip(axes, r["test_common_bias"]))
-          + "; over what the held-out recordings' offsets allow such a mean (z): "
-          + " ".join(f"{a}: {v:.1f}" for a, v in zip(axes, z)))
-  far = [a for a, v in zip(axes, z) if abs(v) > edge]
-  if far:
-    line += (f"; beyond {edge:.2f} (one time in twenty by chance) on {', '.join(far)}: the "
-             f"test recordings differ from recordings like the training ones (their loads, "
-             f"paths or conditions), and the interval, sized on held-out training "
-             f"recordings, cannot see that bias")
-  return [line]
+  return [info.bias_line(r, axes, n, "auto's")]
 
 
 def coverage_spread(results: dict, axes) -> list[str]:

@@ -68,6 +68,21 @@ def over_recordings_line(result: dict, names, inside, far, recording, seed: int)
           + ", ".join(f"{name} {a:.1f}-{b:.1f} %" for name, a, b in zip(names, lo, hi)))
 
 
+def bias_said(result: dict, names, info, error, far, recording):
+  """The mean error common to the test recordings, in the box, and its z over what the
+  held-out recordings' offsets allow (`calibrate.info.common_bias`; into `result`): far out,
+  these recordings differ from the training ones, which no interval sized on those sees.
+  None without held-out offsets or two recordings in the box."""
+  from calibrate import info as info_lib
+  bias = info_lib.common_bias(error[~far], recording[~far], info.interval_offsets)
+  if "test_bias_z" not in bias or len(np.unique(recording[~far])) < 2:
+    return None
+  for j, name in enumerate(names):
+    result[name]["test_common_bias"] = bias["test_common_bias"][j]
+    result[name]["test_bias_z"] = bias["test_bias_z"][j]
+  return info_lib.bias_line(bias, names, len(np.unique(recording[~far])), "the estimator's")
+
+
 def question_lines(info, names, units) -> None:
   """The fit's held-out RMSE with the question it answers, beside this file's."""
   v = info.validation or {}
@@ -153,6 +168,9 @@ def _evaluate(args, out) -> int:
                                 info.settings.get("seed", 0)) if several \
         else one_draw_line(info, args.level)
     if line is not None:
+      print(line)
+    if several and (line := bias_said(result, names, info, pred - truth, far,
+                                      ready.recording)) is not None:
       print(line)
   question_lines(info, names, units)
   metrics = {"estimator": str(args.estimator), "csv": list(map(str, args.csv)),
