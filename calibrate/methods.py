@@ -307,9 +307,13 @@ def warn_few_states(inputs: int, forces: np.ndarray, config: mlp.LMConfig) -> No
   if states < 2 * weights and states < 0.5 * room:
     warnings.warn(f"the targets take only {states} distinct load states (told apart at 1 % of "
                   f"each output's range) for a network of at least {weights} weights: it "
-                  f"will interpolate between them; average several networks (--ensemble "
-                  f"5), and compare LS and POLY (--method auto)", FewStatesWarning,
+                  f"will interpolate between them{FEW_STATES_ADVICE}", FewStatesWarning,
                   stacklevel=4)
+
+
+# what to do, said by a network's own fit; `auto` says what it already does instead
+FEW_STATES_ADVICE = ("; average several networks (--ensemble 5), and compare LS and POLY "
+                     "(--method auto)")
 
 
 def names(c: int, a: int, inputs, outputs, input_units, output_units) -> dict:
@@ -596,8 +600,9 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
     raise errors.SettingError("method auto chooses on held-out groups: it needs groups and "
                               "folds >= 2")
   fitted, table = [], {}
+  ensemble = kwargs.pop("ensemble", 1)
   names = with_ensembles([candidate_name(c) for c in (
-      AUTO_CANDIDATES if candidates is None else candidates)], kwargs.pop("ensemble", 1))
+      AUTO_CANDIDATES if candidates is None else candidates)], ensemble)
   names_in = None if kwargs.get("inputs") is None else list(kwargs["inputs"])
   plane = "LS" in names  # its plane continues the others beyond the box
   with warnings.catch_warnings(record=True) as heard:
@@ -615,7 +620,7 @@ def fit_auto(counts, forces, groups, folds=5, candidates=None, progress=None,
       table[name] = {"cv_rmse": est.info.validation["cv_rmse"],
                      "seconds": time.perf_counter() - t0, "estimator": est}
       fitted.append(est)
-  _say_once(heard)
+  _say_once(heard, ensemble)
   rows = _continuations(fitted, names)
   share = select.between_share(forces, groups.labels)
   scored = [select.model_error(i.validation, share) for _, _, i, _ in rows]
@@ -668,12 +673,16 @@ def _continuations(fitted, names) -> list[tuple]:
                  and e.info.validation.get("held_out_beyond_box", 0) >= GROWTH_MIN]
 
 
-def _say_once(heard) -> None:
+def _say_once(heard, ensemble: int) -> None:
   """Warns again what the candidates' fits warned, each message once (both networks would
-  say the same of the same targets)."""
+  say the same of the same targets), a network's advice on few states as what `auto` does
+  (it weighs LS and POLY already; each network's mean of `ensemble` where over 1)."""
+  instead = "; auto weighs LS and POLY beside the networks" + (
+      f" and each one's mean of {ensemble}" if ensemble > 1 else
+      ", and with --ensemble 5 each network's mean of five")
   for message in dict.fromkeys(str(w.message) for w in heard):
     category = next(w.category for w in heard if str(w.message) == message)
-    warnings.warn(message, category, stacklevel=3)
+    warnings.warn(message.replace(FEW_STATES_ADVICE, instead), category, stacklevel=3)
 
 
 def _auto_info(infos, chosen_names, first: Info, candidates: dict, share) -> Info:
