@@ -523,6 +523,24 @@ def _static_states(states=48, per=150, seed=0):
 
 
 @pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_compare_warns_of_few_states_once_for_both_its_tables(tmp_path, capsys):
+  """Static recordings, one load each: `compare` fits every candidate for each question and
+  says the targets' few states once, not once per table."""
+  x, y, rec = _static_states(states=12, per=40)
+  names = [f"s{k}" for k in range(1, 7)] + ["Fx", "Fy", "Fz"]
+  for g in range(12):
+    csvfile.write(tmp_path / f"state{g:02d}.csv", names,
+                  np.column_stack([x[rec == g], y[rec == g]]))
+  with warnings.catch_warnings(record=True) as heard:
+    warnings.simplefilter("always")
+    assert cli.main(["compare", "--csv", str(tmp_path / "state*.csv"), "--inputs", "s*",
+                     "--targets", "Fx,Fy,Fz", "--epochs", "2", "--hidden", "4", "--layers",
+                     "8", "--folds", "2", "--no-progress"]) == 0
+  assert "later in these same recordings" in capsys.readouterr().out  # both tables
+  assert sum(issubclass(w.category, estimators.FewStatesWarning) for w in heard) == 1
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_a_network_on_few_load_states_is_warned_about_with_the_count():
   x, y, _ = _static_states()
   with pytest.warns(estimators.FewStatesWarning, match=r"only \d+ distinct load states"):

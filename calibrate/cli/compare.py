@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import warnings
+
 from calibrate.cli import common
+from calibrate.methods import FewStatesWarning
 from util import cli, files
 
 
@@ -27,7 +30,9 @@ def run(args) -> int:
   if other is not None:  # the other question the same data can answer
     print(f"\nvalidation: {other.describe()}")
     print(common.question(other, 1))
-    est_other, more = common.fit_auto(args, x, y, other, names)
+    with warnings.catch_warnings():  # the first table said it of the same targets
+      warnings.simplefilter("ignore", FewStatesWarning)
+      est_other, more = common.fit_auto(args, x, y, other, names)
     common.print_candidates(est_other, more)
     if est_other.info.validation["chosen"] != est.info.validation["chosen"]:
       print("the two questions keep different methods: fit with the --split whose question "
