@@ -69,12 +69,13 @@ SESSIONS = 5
 # covered 99.8-100 %). The test paths are not the cause: new sessions' Z offsets (LS, seeds
 # 0-9) were 1.43 N RMS on the test paths, 1.30 N on the training paths, the held-out
 # sessions' 1.16 N but 0.78 N in the median draw: five sessions' spread is mostly small and
-# now and then large (`calibrate.info.common_bias`). At seed 3, over 150 random splits of 15 sessions into 5
-# held out and 5 new, t with 5 degrees of freedom times the held-out spread covered 89.3 %
-# of the new sessions' Z offsets (X 94.1, Y 94.4 %). With a recording's mean error weighed
-# in auto's choice by the loads' share between recordings (`calibrate.select.model_error`;
-# the footpad's sessions span the same loads): 95.6 96.4 94.0 % (Z 89.7-97.7 % resampled),
-# Z still 66.8-73.7 % at seeds 3, 5 and 7 (LS kept), z's RMS 1.7 1.0 1.7.
+# now and then large (`calibrate.info.common_bias`). At seed 3, over 150 random splits of 15
+# sessions into 5 held out and 5 new, t with 5 degrees of freedom times the held-out spread
+# covered 89.3 % of the new sessions' Z offsets (X 94.1, Y 94.4 %). With a recording's mean
+# error weighed in auto's choice by the loads' share between recordings
+# (`calibrate.select.model_error`; the footpad's sessions span the same loads): 95.6 96.4
+# 94.0 % (Z 89.7-97.7 % resampled), Z still 66.8-73.7 % at seeds 3, 5 and 7 (LS kept), z's
+# RMS 1.7 1.0 1.7.
 TEST_SESSIONS = 5
 
 
@@ -538,7 +539,8 @@ def pool(draws: list[dict], seed: int = 0) -> dict:
       r["test_samples"] = int(n.sum())
     if "in_box_by_recording" in runs[0]:
       # a draw's test recordings run the same loads and paths, and so share a bias of their
-      # own (`calibrate.info.common_bias`): over draws the unit resampled is the draw, its recordings together
+      # own (`calibrate.info.common_bias`): over draws the unit resampled is the draw, its
+      # recordings together
       r["in_box_by_draw"] = [float(np.sum(x["in_box_by_recording"])) for x in runs]
       r["in_box_inside_by_draw"] = [[float(np.sum(x["in_box_inside_by_recording"][j]))
                                      for x in runs] for j in range(len(r["nrmse_pct"]))]
@@ -623,8 +625,9 @@ def _coverage_range(r: dict, inside, n, seed: int) -> None:
 
 
 def bias_lines(results: dict, axes, draws: list[dict] = ()) -> list[str]:
-  """auto's test bias (`calibrate.info.common_bias`), one draw's or, with `draws`, its z's RMS over them."""
-  import scipy.stats
+  """auto's test bias (`calibrate.info.common_bias`), one draw's or, with `draws`, its z's
+  RMS over them."""
+  from calibrate import info
   if draws:
     runs = [d["auto"] for d in draws if "test_bias_z" in d.get("auto", {})]
     if not runs:
@@ -636,7 +639,6 @@ def bias_lines(results: dict, axes, draws: list[dict] = ()) -> list[str]:
     return [f"auto's test bias over the {len(z)} draws, RMS of its z per axis ({expect} where "
             f"the test recordings are drawn as the {dof + 1} held-out ones): " + " ".join(
                 f"{a}: {v:.1f}" for a, v in zip(axes, rms))]
-  from calibrate import info
   r = results.get("auto", {})
   if "test_bias_z" not in r:
     return []
