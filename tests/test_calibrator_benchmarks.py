@@ -170,10 +170,10 @@ def test_a_coverage_over_few_recordings_is_given_its_spread_over_them():
 
 
 def test_a_bias_common_to_the_test_recordings_is_scored_against_the_held_out_offsets():
-  """`calibrate.info.common_bias`: recordings offset by +-a about a common b give the mean b, and z = b over
-  RMS(held-out offsets) x sqrt((1/R + 1/G) (G - 1)/G); recordings drawn about zero give
-  z = 0; the line names the axes beyond Student's t's 97.5 % point at G - 1 degrees of
-  freedom (scipy: 12.71 at 1)."""
+  """`calibrate.info.common_bias`: recordings offset by +-a about a common b give the mean
+  b, and z = b over RMS(held-out offsets) x sqrt((1/R + 1/G) (G - 1)/G); recordings drawn
+  about zero give z = 0; the line names the axes beyond Student's t's 97.5 % point at G - 1
+  degrees of freedom (scipy: 12.71 at 1)."""
   from benchmarks.calibrators import real_recordings as rr
   from calibrate import info
   rng = np.random.default_rng(0)

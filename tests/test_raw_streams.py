@@ -181,8 +181,8 @@ def test_recordings_of_one_static_load_each_are_at_no_rail():
   ready = prepare.apply(tables, [0, 1, 2, 3], [4, 5, 6], prepare.Steps())
   assert not any("rail" in line for line in ready.said), ready.said
   sweep = np.column_stack([np.linspace(-10, 10, 400)] * 3)
-  clipped = np.column_stack([np.minimum(500 + 60 * sweep[:, 0], 1023.0), 500 + 20 * sweep])
-  clipped[:, 0] = np.minimum(500 + 80 * sweep[:, 0], 950.0)  # at the top from 5.6 N on
+  clipped = np.column_stack([500 + 80 * sweep[:, 0], 500 + 20 * sweep])
+  clipped[:, 0] = np.minimum(clipped[:, 0], 950.0)  # at the top from 5.6 N on
   moving = csvfile.Table(tuple("abcdFGH"), ("",) * 7, np.column_stack([clipped, sweep]),
                          "sweep.csv")
   ready = prepare.apply(tables + [moving], [0, 1, 2, 3], [4, 5, 6], prepare.Steps())
