@@ -351,6 +351,34 @@ def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, 
       got["both"]["results"]["Fx"]["test_common_bias"] - shift, rel=1e-9)
 
 
+def test_predict_writes_several_recordings_one_file_each_as_one_by_one(tmp_path, capsys):
+  """`predict --csv` with several files writes a folder, one CSV each under its file's name,
+  each equal to that file predicted alone (a memory's filters start afresh per file); a
+  .csv for --out is refused with several, and so are two files of one name."""
+  _recording_files(tmp_path, 8, 300)
+  assert cli.main(["fit", "--csv", str(tmp_path / "run[0-5].csv"), "--inputs", "s*",
+                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
+                   "--out", str(tmp_path / "e.npz")]) == 0
+  common = [str(tmp_path / "e.npz"), "--interval", "0.9", "--csv"]
+  assert cli.main(["predict", *common, str(tmp_path / "run[67].csv"), "--out",
+                   str(tmp_path / "both")]) == 0
+  for k in (6, 7):
+    assert cli.main(["predict", *common, str(tmp_path / f"run{k}.csv"), "--out",
+                     str(tmp_path / f"alone{k}.csv")]) == 0
+    np.testing.assert_array_equal(csvfile.read(tmp_path / "both" / f"run{k}.csv").data,
+                                  csvfile.read(tmp_path / f"alone{k}.csv").data)
+  capsys.readouterr()
+  assert cli.main(["predict", *common, str(tmp_path / "run[67].csv"), "--out",
+                   str(tmp_path / "p.csv")]) == 2
+  assert "2 recordings write one CSV each: give a folder" in capsys.readouterr().err
+  (tmp_path / "other").mkdir()
+  (tmp_path / "other" / "run6.csv").write_text((tmp_path / "run6.csv").read_text())
+  assert cli.main(["predict", *common, str(tmp_path / "run6.csv"),
+                   str(tmp_path / "other" / "run6.csv"), "--out", str(tmp_path / "x")]) == 2
+  assert "two recordings are named run6.csv" in capsys.readouterr().err
+  assert not (tmp_path / "x").exists()
+
+
 def _recording_files(folder, count, n, name="run{}.csv", seed=9):
   """`count` CSV files of `_recordings`' sensor, `n` rows each, with a time column."""
   rng = np.random.default_rng(seed)

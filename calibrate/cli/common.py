@@ -446,10 +446,11 @@ def new_recording(est, args, targets: bool = False):
   training recordings were (its unwrap and tare, per recording), with the estimator's
   outputs as targets when `targets` (tared by the same rule)."""
   cleaning = dict(drop_nan=args.drop_nan, dedupe=args.dedupe)
-  if isinstance(args.csv, list):
-    tables, table, _ = csvfile.read_many(args.csv, args.time_column, **cleaning)
+  paths = csvfile.expand(args.csv) if isinstance(args.csv, list) else [args.csv]
+  if len(paths) > 1:
+    tables, table, _ = csvfile.read_many(paths, args.time_column, **cleaning)
   else:
-    table = csvfile.read(args.csv, args.time_column, **cleaning)
+    table = csvfile.read(paths[0], args.time_column, **cleaning)
     tables = [table]
   names = est.info.inputs if est.info is not None else None
   if names is None:

@@ -8,13 +8,18 @@ import numpy as np
 
 from calibrate.cli import common
 from calibrate import csvfile
-from util import cli, files
+from util import cli, errors, files
+
+DEFAULT_OUT = pathlib.Path("predictions.csv")
+
 
 def add_parser(sub) -> None:
   p = sub.add_parser("predict", help="apply an estimator to a CSV recording")
-  common.recording_args(p)
-  p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("predictions.csv"),
-                 help="where to write the predictions (default predictions.csv)")
+  common.recording_args(p, several=True)
+  p.add_argument("--out", type=cli.path_arg, default=DEFAULT_OUT,
+                 help="where to write the predictions (default predictions.csv); for several "
+                      "recordings a folder, one CSV each under its file's name (default "
+                      "predictions/)")
   p.add_argument("--std", action="store_true",
                  help="add a standard deviation column per output (<name>_sd)")
   p.add_argument("--interval", type=float, default=None, metavar="LEVEL",
@@ -24,28 +29,57 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
   from calibrate import estimators
-  files.output_file(args.out, "--out", (".csv",))
+  paths = csvfile.expand(args.csv)
+  if len(paths) == 1:
+    files.output_file(args.out, "--out", (".csv",))
+    return _predict(args, args.out, None)
+  names = [pathlib.Path(p).name for p in paths]
+  if len(set(names)) < len(names):
+    twice = next(n for n in names if names.count(n) > 1)
+    raise errors.SettingError(f"--csv: two recordings are named {twice}: predictions of "
+                              f"several go to one folder under their files' names; rename one")
+  out = pathlib.Path("predictions") if args.out == DEFAULT_OUT else args.out
+  if out.suffix.lower() == ".csv":
+    raise errors.SettingError(f"--out {out}: {len(paths)} recordings write one CSV each: "
+                              f"give a folder (e.g. --out predictions/)")
+  estimators.Estimator.load(args.estimator)  # a broken file is said before the folder exists
+  return files.holding(out, "--out", lambda folder: _predict(args, folder, names))
+
+
+def _predict(args, out, files_named) -> int:
+  """The predictions to the file `out`, or with `files_named` (one per recording) to the
+  folder `out`, one file each."""
+  from calibrate import estimators
   est = estimators.Estimator.load(args.estimator)
   if args.interval is not None:
     est.info.half_width(args.interval)  # a level out of range, or no interval: say so first
   table, ready = common.new_recording(est, args)
   x = ready.x
-  pred, sd = est.predict(x, return_std=True, **common.stream_of(est, table, ready))
-  names, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
+  # each file its own recording: a memory's filters and tares start afresh in each
+  pred, sd = est.predict(x, return_std=True, segments=ready.recording,
+                         **common.stream_of(est, table, ready))
+  columns, units, cols = list(est.info.outputs), list(est.info.output_units), [pred]
   a = len(est.info.outputs)
   if args.std:
-    names += [f"{n}_sd" for n in est.info.outputs]
+    columns += [f"{n}_sd" for n in est.info.outputs]
     units += units[:a]
     cols.append(sd)
   if args.interval is not None:
     half = est.info.half_width_at(args.interval, x)  # wider beyond the training box
-    names += [f"{n}_{end}" for end in ("lo", "hi") for n in est.info.outputs]
+    columns += [f"{n}_{end}" for end in ("lo", "hi") for n in est.info.outputs]
     units += units[:a] * 2
     cols += [pred - half, pred + half]
   t = table.seconds(args.time_column)
   if t is not None:
-    names, units, cols = ([args.time_column] + names, ["s"] + units,
-                          [t[ready.rows, None]] + cols)
-  csvfile.write(args.out, names, np.hstack(cols), units)
-  print(f"{len(x)} predictions of {', '.join(est.info.outputs)} to {args.out}")
+    columns, units, cols = ([args.time_column] + columns, ["s"] + units,
+                            [t[ready.rows, None]] + cols)
+  rows = np.hstack(cols)
+  if files_named is None:
+    csvfile.write(out, columns, rows, units)
+    print(f"{len(x)} predictions of {', '.join(est.info.outputs)} to {out}")
+    return 0
+  for k, name in enumerate(files_named):
+    csvfile.write(out / name, columns, rows[ready.recording == k], units)
+  print(f"{len(x)} predictions of {', '.join(est.info.outputs)} for {len(files_named)} "
+        f"recordings to {out}/ (one CSV each, under its file's name)")
   return 0
