@@ -43,16 +43,13 @@ def cleaning_args(p: argparse.ArgumentParser) -> None:
                       "keeps the first (counted); default: refuse the file")
 
 
-def recording_args(p: argparse.ArgumentParser, several: bool = False) -> None:
-  """The options of the commands that apply an estimator to a recording (`several`: to
-  one or more, each its own recording)."""
+def recording_args(p: argparse.ArgumentParser, together: str) -> None:
+  """The options of the commands that apply an estimator to one or more recordings, each
+  its own; `together`: what the command does with several."""
   p.add_argument("estimator", type=cli.path_arg, help="an estimator file `fit` wrote")
-  if several:
-    p.add_argument("--csv", required=True, nargs="+", type=cli.path_arg,
-                   help="the recordings: one or more files or globs ('test/*.csv'), each its "
-                        "own recording (tared and filtered afresh), scored together")
-  else:
-    p.add_argument("--csv", required=True, type=cli.path_arg, help="the recording")
+  p.add_argument("--csv", required=True, nargs="+", type=cli.path_arg,
+                 help="the recordings: one or more files or globs ('test/*.csv'), each its "
+                      f"own recording (tared and filtered afresh), {together}")
   p.add_argument("--time-column", default="time", help="name of the time column (time)")
   cleaning_args(p)
   rails_args(p)
@@ -441,12 +438,12 @@ def with_preparation(est, args):
 
 
 def new_recording(est, args, targets: bool = False):
-  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recording (or, a list
-  in `args.csv`, the recordings, as one table) read and prepared as the estimator's
+  """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recordings of `args.csv`
+  (several as one table) read and prepared as the estimator's
   training recordings were (its unwrap and tare, per recording), with the estimator's
   outputs as targets when `targets` (tared by the same rule)."""
   cleaning = dict(drop_nan=args.drop_nan, dedupe=args.dedupe)
-  paths = csvfile.expand(args.csv) if isinstance(args.csv, list) else [args.csv]
+  paths = csvfile.expand(args.csv)
   if len(paths) > 1:
     tables, table, _ = csvfile.read_many(paths, args.time_column, **cleaning)
   else:

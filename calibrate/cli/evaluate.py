@@ -11,7 +11,7 @@ from util import cli, errors, files
 
 def add_parser(sub) -> None:
   p = sub.add_parser("evaluate", help="the papers' metrics and figures on held-out data")
-  common.recording_args(p, several=True)
+  common.recording_args(p, "scored together")
   p.add_argument("--out", type=cli.path_arg, default=pathlib.Path("evaluation"),
                  help="folder for metrics.csv, metrics.json and figures (evaluation/)")
   p.add_argument("--level", type=float, default=0.95,

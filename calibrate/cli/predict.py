@@ -15,7 +15,7 @@ DEFAULT_OUT = pathlib.Path("predictions.csv")
 
 def add_parser(sub) -> None:
   p = sub.add_parser("predict", help="apply an estimator to a CSV recording")
-  common.recording_args(p, several=True)
+  common.recording_args(p, "each predicted to its own file")
   p.add_argument("--out", type=cli.path_arg, default=DEFAULT_OUT,
                  help="where to write the predictions (default predictions.csv); for several "
                       "recordings a folder, one CSV each under its file's name (default "
