@@ -305,6 +305,15 @@ def test_the_command_fits_several_recordings_and_reports_coverage(tmp_path, caps
   assert all("truth_outside_training_pct" in got[ax] for ax in ("Fx", "Fy", "Fz"))
 
 
+def _memory_fit(folder) -> None:
+  """Eight recordings of `_recording_files` in `folder`, and `e.npz`: LS behind a 0.2 s memory
+  fitted on the first six (run6 and run7 are new to it)."""
+  _recording_files(folder, 8, 300)
+  assert cli.main(["fit", "--csv", str(folder / "run[0-5].csv"), "--inputs", "s*",
+                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
+                   "--out", str(folder / "e.npz")]) == 0
+
+
 def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, capsys):
   """`evaluate --csv` with several files (a glob): each its own recording, its memory's
   filters started afresh, so the pooled RMSE is the files' one by one, sample-weighted
@@ -312,10 +321,7 @@ def test_evaluate_scores_several_recordings_as_their_files_one_by_one(tmp_path, 
   spread over the recordings it rests on is printed and kept, and their common mean error
   with its z over the held-out recordings' offsets, which names an output shifted in
   every test file."""
-  _recording_files(tmp_path, 8, 300)
-  assert cli.main(["fit", "--csv", str(tmp_path / "run[0-5].csv"), "--inputs", "s*",
-                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
-                   "--out", str(tmp_path / "e.npz")]) == 0
+  _memory_fit(tmp_path)
   capsys.readouterr()
   got = {}
   for name, csvs in (("6", ["run6.csv"]), ("7", ["run7.csv"]), ("both", ["run[67].csv"])):
@@ -355,10 +361,7 @@ def test_predict_writes_several_recordings_one_file_each_as_one_by_one(tmp_path,
   """`predict --csv` with several files writes a folder, one CSV each under its file's name,
   each equal to that file predicted alone (a memory's filters start afresh per file); a
   .csv for --out is refused with several, and so are two files of one name."""
-  _recording_files(tmp_path, 8, 300)
-  assert cli.main(["fit", "--csv", str(tmp_path / "run[0-5].csv"), "--inputs", "s*",
-                   "--targets", "Fx,Fy,Fz", "--method", "ls", "--history", "0.2",
-                   "--out", str(tmp_path / "e.npz")]) == 0
+  _memory_fit(tmp_path)
   common = [str(tmp_path / "e.npz"), "--interval", "0.9", "--csv"]
   assert cli.main(["predict", *common, str(tmp_path / "run[67].csv"), "--out",
                    str(tmp_path / "both")]) == 0

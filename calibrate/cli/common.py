@@ -437,13 +437,13 @@ def with_preparation(est, args):
       est.info, settings={**est.info.settings, "prepare": args.prepared, **more}))
 
 
-def new_recording(est, args, targets: bool = False):
+def new_recording(est, args, targets: bool = False, paths=None):
   """(table, `prepare.Prepared`) of `predict` and `evaluate`: the recordings of `args.csv`
-  (several as one table) read and prepared as the estimator's
-  training recordings were (its unwrap and tare, per recording), with the estimator's
-  outputs as targets when `targets` (tared by the same rule)."""
+  (or `paths`, their files already expanded; several as one table) read and prepared as
+  the estimator's training recordings were (its unwrap and tare, per recording), with the
+  estimator's outputs as targets when `targets` (tared by the same rule)."""
   cleaning = dict(drop_nan=args.drop_nan, dedupe=args.dedupe)
-  paths = csvfile.expand(args.csv)
+  paths = csvfile.expand(args.csv) if paths is None else paths
   if len(paths) > 1:
     tables, table, _ = csvfile.read_many(paths, args.time_column, **cleaning)
   else:

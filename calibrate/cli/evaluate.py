@@ -75,12 +75,13 @@ def bias_said(result: dict, names, info, error, far, recording):
   None without held-out offsets or two recordings in the box."""
   from calibrate import info as info_lib
   bias = info_lib.common_bias(error[~far], recording[~far], info.interval_offsets)
-  if "test_bias_z" not in bias or len(np.unique(recording[~far])) < 2:
+  count = len(np.unique(recording[~far]))
+  if "test_bias_z" not in bias or count < 2:
     return None
   for j, name in enumerate(names):
     result[name]["test_common_bias"] = bias["test_common_bias"][j]
     result[name]["test_bias_z"] = bias["test_bias_z"][j]
-  return info_lib.bias_line(bias, names, len(np.unique(recording[~far])), "the estimator's")
+  return info_lib.bias_line(bias, names, count, "the estimator's")
 
 
 def question_lines(info, names, units) -> None:

@@ -32,7 +32,7 @@ def run(args) -> int:
   paths = csvfile.expand(args.csv)
   if len(paths) == 1:
     files.output_file(args.out, "--out", (".csv",))
-    return _predict(args, args.out, None)
+    return _predict(args, estimators.Estimator.load(args.estimator), paths, args.out, None)
   names = [pathlib.Path(p).name for p in paths]
   if len(set(names)) < len(names):
     twice = next(n for n in names if names.count(n) > 1)
@@ -42,18 +42,16 @@ def run(args) -> int:
   if out.suffix.lower() == ".csv":
     raise errors.SettingError(f"--out {out}: {len(paths)} recordings write one CSV each: "
                               f"give a folder (e.g. --out predictions/)")
-  estimators.Estimator.load(args.estimator)  # a broken file is said before the folder exists
-  return files.holding(out, "--out", lambda folder: _predict(args, folder, names))
+  est = estimators.Estimator.load(args.estimator)  # before the folder: a broken file leaves none
+  return files.holding(out, "--out", lambda folder: _predict(args, est, paths, folder, names))
 
 
-def _predict(args, out, files_named) -> int:
-  """The predictions to the file `out`, or with `files_named` (one per recording) to the
-  folder `out`, one file each."""
-  from calibrate import estimators
-  est = estimators.Estimator.load(args.estimator)
+def _predict(args, est, paths, out, files_named) -> int:
+  """`est`'s predictions of the recordings `paths` to the file `out`, or with `files_named`
+  (one per recording) to the folder `out`, one file each."""
   if args.interval is not None:
     est.info.half_width(args.interval)  # a level out of range, or no interval: say so first
-  table, ready = common.new_recording(est, args)
+  table, ready = common.new_recording(est, args, paths=paths)
   x = ready.x
   # each file its own recording: a memory's filters and tares start afresh in each
   pred, sd = est.predict(x, return_std=True, segments=ready.recording,
