@@ -70,24 +70,16 @@ class LinearRecipe:
 
 @dataclasses.dataclass(frozen=True)
 class PolyRecipe:
-  """The polynomial with cross terms up to `degree`, ridge weight `ridge` per sample; either
-  may be a tuple of one per output (`poly.fit_each`)."""
-  degree: object = 3
-  ridge: object = 0.0
+  """The polynomial with cross terms up to `degree`, ridge weight `ridge` per sample."""
+  degree: int = 3
+  ridge: float = 0.0
   SEEDED = False
-
-  def _fit(self, x, y):
-    if isinstance(self.degree, tuple) or isinstance(self.ridge, tuple):
-      a = y.shape[1]
-      degrees = self.degree if isinstance(self.degree, tuple) else (self.degree,) * a
-      ridges = self.ridge if isinstance(self.ridge, tuple) else (self.ridge,) * a
-      return poly_lib.fit_each(x, y, degrees, [r * len(x) for r in ridges])
-    return poly_lib.fit(x, y, self.degree, self.ridge * len(x))
 
   def fit(self, x, y, where, val: Validation, seed: int, given=None, progress=None) -> Fitted:
     tr, va = val.split(where, seed)
-    sd = np.std(y[va] - self._fit(x[tr], y[tr]).predict(x[va]), axis=0)
-    return Fitted((self._fit(x, y),), (sd,), (None,))
+    held = poly_lib.fit(x[tr], y[tr], self.degree, self.ridge * len(tr))
+    sd = np.std(y[va] - held.predict(x[va]), axis=0)
+    return Fitted((poly_lib.fit(x, y, self.degree, self.ridge * len(x)),), (sd,), (None,))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,44 +260,35 @@ def layer_grid(recipe: "DeepRecipe", choices) -> dict:
       for layers in choices}
 
 
-def choose_poly(x, y, parts, degrees) -> tuple[tuple, tuple, dict]:
-  """(degrees, ridges, table): each output's degree and ridge weight (A,) of the polynomial
-  with cross terms, each the lowest grouped cross-validated mean squared error of that
-  output over `parts` ((train, held-out) pairs), as scikit-learn's `RidgeCV(alpha_per_target)`
-  chooses ridges: every degree in `degrees`, ridge weights `poly.RIDGES` x the training
-  samples, and past the largest of them while an output's held-out error still falls there
-  (ten times more each step, up to `RIDGE_STEPS` steps). Each output chooses on its own
-  error because a sum over outputs is decided by the largest in its units alone (forces in
-  N beside moments in N m). The ridges are sum-of-squares weights (x the samples); the
-  table maps each candidate to its (A,) held-out mean squared errors. The SVD of each fold
-  is shared by its ridge weights and outputs."""
+def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
+  """(degree, ridge, table) of the polynomial with cross terms with the lowest grouped
+  cross-validated mean squared error over `parts` ((train, held-out) pairs): every degree in
+  `degrees`, ridge weights `poly.RIDGES` x the training samples, and past the largest of
+  them while the held-out error still falls there (ten times more each step, up to
+  `RIDGE_STEPS` steps). The SVD of each fold is shared by its ridge weights."""
   table = {}
   for deg in degrees:
     ridges = list(poly_lib.RIDGES)
     sse = _poly_sse(x, y, parts, deg, ridges)
-    while (np.argmin(sse, axis=0) == len(sse) - 1).any() and \
-        len(ridges) < len(poly_lib.RIDGES) + RIDGE_STEPS:
+    while np.argmin(sse) == len(sse) - 1 and len(ridges) < len(poly_lib.RIDGES) + RIDGE_STEPS:
       ridges.append(ridges[-1] * 10)  # the error still falls at the grid's edge
-      sse = np.vstack([sse, _poly_sse(x, y, parts, deg, ridges[-1:])])
+      sse = np.append(sse, _poly_sse(x, y, parts, deg, ridges[-1:]))
     for r, e in zip(ridges, sse):
-      table[(deg, r)] = e / len(y)
-  keys = list(table)
-  best = [keys[int(np.argmin([table[k][a] for k in keys]))] for a in range(y.shape[1])]
-  return (tuple(d for d, _ in best), tuple(r * len(x) for _, r in best),
-          {f"degree {d}, ridge {r:g} x samples": v.tolist() for (d, r), v in table.items()})
+      table[(deg, r)] = float(e / len(y))
+  deg, r = select.lowest(table)
+  return deg, r * len(x), {f"degree {d}, ridge {r:g} x samples": v
+                           for (d, r), v in table.items()}
 
 
 RIDGE_STEPS = 6  # the ridge weights tried past the grid: up to 1e6 x the samples
 
 
 def _poly_sse(x, y, parts, deg, ridges) -> np.ndarray:
-  """(R, A) the held-out sum of squared errors of each output at each ridge weight (x the
-  training samples)."""
+  """(R,) the held-out sum of squared errors at each ridge weight (x the training samples)."""
   def fold(tr, va):
     f = poly_lib.factor(x[tr], y[tr], deg, True, 1e-10)
     return [f.solve(r * len(tr)).predict(x[va]) for r in ridges]
-  residual = select.held_out(fold, y, parts, len(ridges))
-  return sum(np.sum(residual[:, va] ** 2, axis=1) for _, va in parts)
+  return select.fold_sums(select.held_out(fold, y, parts, len(ridges)), parts)
 
 
 class FewStatesWarning(UserWarning):
@@ -420,14 +403,11 @@ def recipe(kind: str, options: dict, settings: dict, x, y, cv_folds):
   if kind == "POLY" and options["cross"]:
     ridge, degree = options["ridge"], options["degree"]
     if ridge is None and cv_folds:
-      degrees, lams, table = choose_poly(x, y, cv_folds, tuple(range(1, degree + 1)))
-      degree, ridge = degrees, tuple(lam / len(x) for lam in lams)
-      settings.update(poly_cv_mse=table, degrees=list(degrees))
-      if len(set(degree)) == 1 and len(set(ridge)) == 1:
-        degree, ridge = degree[0], ridge[0]  # one polynomial serves every output
-    ridge = 0.0 if ridge is None else ridge
-    settings.update(cross=True, degree=int(np.max(degree)),
-                    ridge_per_sample=list(ridge) if isinstance(ridge, tuple) else float(ridge))
+      degree, lam, table = choose_poly(x, y, cv_folds, tuple(range(1, degree + 1)))
+      ridge = lam / len(x)
+      settings["poly_cv_mse"] = table
+    ridge = 0.0 if ridge is None else float(ridge)
+    settings.update(cross=True, ridge_per_sample=ridge, degree=degree)
     return PolyRecipe(degree, ridge)
   if kind in RESIDUAL_FAMILIES:
     return ResidualRecipe(RESIDUAL_FAMILIES[kind], options["gp"])

@@ -85,92 +85,11 @@ def test_the_ridge_search_goes_past_its_grid_while_the_held_out_error_still_fall
   rng = np.random.default_rng(2)
   x, y = rng.uniform(-1, 1, (400, 3)), rng.normal(size=(400, 2))
   parts = splits.folds(splits.groups(400, "blocks", block=40), 4, 0)
-  deg, ridges, table = methods.choose_poly(x, y, parts, (2,))
+  deg, ridge, table = methods.choose_poly(x, y, parts, (2,))
   largest = max(poly.RIDGES)
-  assert all(r / len(x) > largest for r in ridges)
+  assert ridge / len(x) > largest
   assert any(f"ridge {largest * 10:g} x samples" in k for k in table)
   # a signal the polynomial holds: the weight stays inside the grid
   y2 = np.column_stack([x[:, 0] ** 2 - x[:, 1], x[:, 2]]) + 0.01 * rng.normal(size=(400, 2))
-  _, ridges2, table2 = methods.choose_poly(x, y2, parts, (2,))
-  assert all(r / len(x) < largest for r in ridges2) and len(table2) == len(poly.RIDGES)
-
-
-def _force_and_moment(n=1200, seed=3):
-  """A force (sd ~30 N) linear in the channels under 3 N of noise beside a moment (sd ~0.1 N
-  m) that is a cubic of them under 1e-3 N m: the units of a six-axis sensor."""
-  rng = np.random.default_rng(seed)
-  x = rng.uniform(-1, 1, (n, 3))
-  force = 30 * (x[:, 0] - x[:, 1]) + 3 * rng.normal(size=n)
-  moment = 0.1 * (x[:, 0] * x[:, 1] * x[:, 2] + x[:, 2] ** 3) + 1e-3 * rng.normal(size=n)
-  return x, np.column_stack([force, moment])
-
-
-def test_each_output_chooses_its_own_degree_on_its_own_held_out_error():
-  """The sum of squared errors over outputs is the force's alone (the moment's is 1e-5 of
-  it), so a joint choice gives the moment whatever the force wants. Each output chooses on
-  its own error: the moment gets the cubic its truth is, and its held-out error is each
-  output's lowest over the whole grid, which a joint choice cannot beat on any output."""
-  from calibrate import methods
-  x, y = _force_and_moment()
-  parts = splits.folds(splits.groups(len(x), "blocks", block=60), 5, 0)
-  degrees, ridges, table = methods.choose_poly(x, y, parts, (1, 2, 3))
-  assert degrees[1] == 3
-  mse = np.array(list(table.values()))  # (candidates, outputs)
-  chosen = [table[f"degree {d}, ridge {r / len(x):g} x samples"][a]
-            for a, (d, r) in enumerate(zip(degrees, ridges))]
-  np.testing.assert_allclose(chosen, mse.min(axis=0))
-  joint = mse[np.argmin(mse.sum(axis=1))]
-  assert np.all(np.asarray(chosen) <= joint)
-  assert joint[1] > 10 * chosen[1], (joint, chosen)  # the force's choice fails the moment
-
-
-def test_each_output_at_its_own_degree_equals_that_output_fitted_alone():
-  """One polynomial at the largest degree with zeros past each output's own: inside and
-  beyond the box each output is `fit` of that output alone at its degree and ridge."""
-  x, y = _force_and_moment(400)
-  both = poly.fit_each(x, y, (1, 3), (4.0, 1e-3))
-  far = np.vstack([x, 3 * x[:20]])  # past the box: the tangent plane
-  for a, (d, r) in enumerate([(1, 4.0), (3, 1e-3)]):
-    alone = poly.fit(x, y[:, a:a + 1], d, r)
-    np.testing.assert_allclose(both.predict(far)[:, a], alone.predict(far)[:, 0],
-                               rtol=1e-9, atol=1e-12)
-  assert both.ridge == (4.0, 1e-3) and both.degree == 3
-  assert np.all(both.coef[len(poly.powers(3, 1)):, 0] == 0)
-
-
-def test_fit_keeps_each_outputs_choice_and_says_it():
-  """`estimators.fit` with cross-validation records each output's degree and ridge, its
-  predictions are `fit_each`'s at them, and `fit` prints each output's pair."""
-  from calibrate.cli.fit import poly_lines
-  x, y = _force_and_moment()
-  g = splits.groups(len(x), "blocks", block=60)
-  est = estimators.fit("POLY", x, y, cross=True, groups=g, folds=5, outputs=["F", "M"])
-  s = est.info.settings
-  assert s["degrees"][1] == 3 and s["degree"] == max(s["degrees"])
-  ridges = np.broadcast_to(s["ridge_per_sample"], (2,)) * len(x)
-  want = poly.fit_each(x, y, s["degrees"], ridges).predict(x)
-  np.testing.assert_allclose(est.predict(x), want, rtol=1e-9, atol=1e-9)
-  assert s["degrees"][0] == 1  # a line under noise
-  line = poly_lines(s, ["F", "M"])
-  assert "F degree 1 ridge" in line and "M degree 3 ridge" in line, line
-
-
-CC = __import__("shutil").which("cc") or __import__("shutil").which("gcc")
-
-
-@pytest.mark.skipif(CC is None, reason="no C compiler (cc or gcc) on this machine")
-def test_each_outputs_polynomial_is_saved_loaded_and_exported_as_it_predicts(tmp_path):
-  """The per-output ridges go through the file, and the C export's one loop over the
-  largest degree's monomials gives each output's own polynomial, past the box too."""
-  from calibrate import cexport
-  x, y = _force_and_moment(600)
-  est = estimators.fit("POLY", x, y, cross=True, groups=splits.groups(600, "blocks", block=60),
-                       folds=4)
-  assert len(set(est.info.settings["degrees"])) == 2
-  est.save(tmp_path / "e.npz")
-  back = estimators.Estimator.load(tmp_path / "e.npz")
-  test = np.random.default_rng(4).uniform(-1.5, 1.5, (200, 3))
-  np.testing.assert_array_equal(back.predict(test), est.predict(test))
-  c_out = cexport.run_on_host(back, test, cc=CC)
-  want = est.predict(test)
-  assert np.max(np.abs(c_out - want) / np.abs(want).max(axis=0)) < 1e-5
+  _, ridge2, table2 = methods.choose_poly(x, y2, parts, (2,))
+  assert ridge2 / len(x) < largest and len(table2) == len(poly.RIDGES)

@@ -111,7 +111,7 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     if key in info.settings:
       print(grid_line(what, chosen, info.settings[key]))
   if info.settings.get("cross"):
-    print(poly_lines(info.settings, info.outputs))
+    print(poly_lines(info.settings))
   if v:
     print(f"held-out error ({v['folds']}-fold grouped cross-validation), RMSE: " + ", ".join(
         f"{n} {r:.4g} {u}" for n, r, u in zip(info.outputs, v["cv_rmse"], units)))
@@ -218,28 +218,18 @@ def memory_line(mem, chosen: bool) -> str:
              if mem.detector is None else f", drift tare below {mem.tare.threshold:g} N"))
 
 
-def poly_lines(settings: dict, outputs) -> str:
-  """What the polynomial with cross terms is: its degree and ridge (each output's own where
-  they differ), and whether the ridge search ended at its largest weight with the held-out
-  error still falling."""
+def poly_lines(settings: dict) -> str:
+  """What the polynomial with cross terms is: its degree and ridge, and whether the ridge
+  search ended at its largest weight with the held-out error still falling."""
   from calibrate import methods
   from calibrate.parts import poly
-  a = len(outputs)
-  degrees = settings.get("degrees", [settings["degree"]] * a)
-  ridges = np.broadcast_to(settings["ridge_per_sample"], (a,))
-  chosen = " (chosen by grouped cross-validation" if "poly_cv_mse" in settings else ""
-  if len(set(degrees)) == 1 and len(set(ridges.tolist())) == 1:
-    text = (f"polynomial: every product of total degree <= {degrees[0]}, ridge {ridges[0]:g} "
-            f"per sample" + (chosen and chosen + ")"))
-  else:
-    text = ("polynomial: every product of total degree <= each output's own, ridge per sample"
-            + (chosen and chosen + ", each output on its own error)") + ": " + ", ".join(
-                f"{n} degree {d} ridge {r:g}" for n, d, r in zip(outputs, degrees, ridges)))
-  text += "; linear beyond the training box"
+  text = (f"polynomial: every product of total degree <= {settings['degree']}, ridge "
+          f"{settings['ridge_per_sample']:g} per sample"
+          + (" (both chosen by grouped cross-validation)" if "poly_cv_mse" in settings
+             else "") + "; linear beyond the training box")
   last = max(poly.RIDGES) * 10.0 ** methods.RIDGE_STEPS  # the search's largest weight
-  edge = [n for n, r in zip(outputs, ridges) if r >= 0.999 * last]
-  if "poly_cv_mse" in settings and edge:
-    text += (f"\n  {', '.join(edge)}: the held-out error still fell at the largest ridge "
-             f"weight tried ({last:g} per sample): the polynomial adds little beyond the mean "
-             f"there; compare LS (--method auto)")
+  if "poly_cv_mse" in settings and settings["ridge_per_sample"] >= 0.999 * last:
+    text += (f"\n  the held-out error still fell at the largest ridge weight tried ({last:g} "
+             f"per sample): the polynomial adds little beyond the mean here; compare LS "
+             f"(--method auto)")
   return text

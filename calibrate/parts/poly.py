@@ -77,8 +77,8 @@ class PolyFit(Part):
     powers: (T, C) exponents of the monomials.
     coef: (T, A) coefficients.  bias: (A,) intercept, output units.
     ridge: the ridge weight it was fitted with (on the sum of squares, as scikit-learn's
-      `Ridge(alpha)`), or (A,) one per output (`fit_each`).
-    rank: numerical rank of the centred features (at the largest degree an output uses).
+      `Ridge(alpha)`).
+    rank: numerical rank of the centred features.
     beyond: where past the box its tangent is taken: "centre", where the line from the
       box's centre leaves the box (`base.toward_centre`); "clip", each input clipped alone
       (files written before 2026-11-27).
@@ -90,7 +90,7 @@ class PolyFit(Part):
   powers: np.ndarray
   coef: np.ndarray
   bias: np.ndarray
-  ridge: object  # float, or a tuple of one per output
+  ridge: float
   rank: int
   beyond: str = "centre"
 
@@ -125,15 +125,14 @@ class PolyFit(Part):
     return self.coef.shape[1]
 
   def leaves(self) -> tuple[dict, dict]:
-    ridge = list(self.ridge) if isinstance(self.ridge, tuple) else self.ridge
-    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": ridge, "rank": self.rank,
+    return {f: getattr(self, f) for f in self.FIELDS}, {"ridge": self.ridge, "rank": self.rank,
                                                         "beyond": self.beyond}
 
   @classmethod
   def from_leaves(cls, spec, arrays, children=None) -> "PolyFit":
     fit = cls(*(arrays[f] for f in ("mean", "scale", "lo", "hi")),
               np.asarray(arrays["powers"]).astype(int), arrays["coef"], arrays["bias"],
-              _ridge(spec["ridge"]), int(spec["rank"]), read_beyond(spec))
+              float(spec["ridge"]), int(spec["rank"]), read_beyond(spec))
     c, (t, a) = len(fit.mean), np.shape(fit.coef) if np.ndim(fit.coef) == 2 else (-1, -1)
     check_shapes("polynomial", arrays, {"scale": (c,), "lo": (c,), "hi": (c,),
                                         "powers": (t, c), "bias": (a,)})
@@ -185,13 +184,6 @@ class PolyFit(Part):
         "      }",
         "    }",
         "  }"]
-
-
-def _ridge(value):
-  """A stored ridge weight: one float, or a tuple of one per output."""
-  if isinstance(value, (list, tuple)):
-    return tuple(float(v) for v in value)
-  return float(value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,35 +239,6 @@ def fit(x: np.ndarray, y: np.ndarray, degree: int, ridge: float = 0.0, cross: bo
     warnings.warn(f"polynomial features are rank-deficient ({out.rank} of {len(f.powers)}): "
                   f"{len(f.powers) - out.rank} direction(s) dropped")
   return out
-
-
-def fit_each(x: np.ndarray, y: np.ndarray, degrees, ridges, rcond: float = 1e-10) -> PolyFit:
-  """`fit` with each output its own degree and ridge weight ((A,) each): one polynomial at
-  the largest degree, whose coefficients past an output's own degree are zero (the
-  monomials are in graded order, so each degree's are a prefix of the next's). Each output
-  equals `fit` of that output alone at its degree and weight; the C export is one loop."""
-  import warnings
-  degrees, ridges = [int(d) for d in degrees], [float(r) for r in ridges]
-  if len(degrees) != y.shape[1] or len(ridges) != y.shape[1]:
-    raise errors.SettingError(f"degrees and ridges need one entry per output ({y.shape[1]}): "
-                              f"got {len(degrees)} and {len(ridges)}")
-  for r in ridges:
-    if not (np.isfinite(r) and r >= 0):
-      raise errors.SettingError(f"ridge={r!r} is out of range: allowed [0, inf)")
-  factors = {d: factor(x, y, d, True, rcond) for d in sorted(set(degrees))}
-  top = factors[max(degrees)]
-  coef = np.zeros((len(top.powers), y.shape[1]))
-  bias = np.zeros(y.shape[1])
-  for a, (d, r) in enumerate(zip(degrees, ridges)):
-    one = factors[d].solve(r)
-    coef[:len(one.powers), a] = one.coef[:, a]
-    bias[a] = one.bias[a]
-    if one.rank < len(one.powers) and r == 0:
-      warnings.warn(f"polynomial features are rank-deficient ({one.rank} of "
-                    f"{len(one.powers)}): {len(one.powers) - one.rank} direction(s) dropped")
-  same = len(set(ridges)) == 1
-  return PolyFit(top.mean, top.scale, top.lo, top.hi, top.powers, coef, bias,
-                 ridges[0] if same else tuple(ridges), int(top.keep.sum()))
 
 
 RIDGES = (0.0,) + tuple(10.0 ** k for k in range(-8, 1))  # times the number of samples
