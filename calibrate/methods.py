@@ -268,13 +268,14 @@ def choose_poly(x, y, parts, degrees) -> tuple[int, float, dict]:
   `RIDGE_STEPS` steps). The SVD of each fold is shared by its ridge weights.
 
   One choice for every output, on the squared error summed over them (so the outputs in
-  the largest units weigh most): each output choosing its own (as `RidgeCV(alpha_per_target)`)
-  lowered the grouped CV error on the footpad, both shells and a printed F/T sensor, but
-  tested worse on the footpad (measured 2026-12-03 over `real_recordings`' seeds 0-4: auto /
-  best baseline Y 0.81 -> 0.88, Z 0.92 -> 1.01). The outputs' own choices took smaller ridges (seed 0 Y 1e-7 against
-  1e-3 x samples, seed 2 Z 1e-3 against 1e-2), and the test recordings, a third of them past
-  the training box, punished them: POLY's NRMSE seed 0 Y 3.09 against 2.54 % (4.33 against
-  3.01 past the box), seed 2 Z 1.28 against 0.98 %."""
+  the largest units weigh most). Each output choosing its own (as scikit-learn's
+  `RidgeCV(alpha_per_target)`) lowered the grouped CV error on the footpad, both shells and
+  a printed F/T sensor, but tested worse on the footpad (measured 2026-12-03 with
+  `real_recordings`, seeds 0-4: auto / best baseline Y 0.81 -> 0.88, Z 0.92 -> 1.01; better
+  on shell_static's Fz alone, 0.92 -> 0.79). The outputs' own choices took smaller ridges
+  (seed 0 Y 1e-7 against 1e-3 x samples, seed 2 Z 1e-3 against 1e-2), and the test
+  recordings, a third of them past the training box, punished them: POLY's NRMSE seed 0 Y
+  3.09 against 2.54 % (4.33 against 3.01 past the box), seed 2 Z 1.28 against 0.98 %."""
   table = {}
   for deg in degrees:
     ridges = list(poly_lib.RIDGES)
