@@ -38,15 +38,15 @@ from calibrate.temporal_fit import TAU_CANDIDATES
 def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
         linear_fit: Optional[linear.LinearFit] = None, config: mlp.LMConfig = mlp.LMConfig(),
         val_fraction: float = 0.15, seed: int = 0, progress=None,
-        degree: int = 3, snapshots: tuple[int, ...] = (),
-        val_block: Optional[int] = None, ensemble: int = 1,
-        inputs: Optional[Sequence[str]] = None, outputs: Optional[Sequence[str]] = None,
-        input_units: Optional[Sequence[str]] = None,
+        degree: int = 3, snapshots: tuple[int, ...] = (), val_block: Optional[int] = None,
+        ensemble: int = 1, inputs: Optional[Sequence[str]] = None,
+        outputs: Optional[Sequence[str]] = None, input_units: Optional[Sequence[str]] = None,
         output_units: Optional[Sequence[str]] = None,
         groups: Optional[splits.Groups] = None, folds: int = 0,
         cross: bool = False, ridge: Optional[float] = None,
         widths: Sequence[int] = (), net_inputs: Optional[int] = None,
-        gp=None, deep=None, layers: Optional[Sequence[int]] = None) -> Estimator:
+        gp=None, deep=None, layers: Optional[Sequence[int]] = None, activation=None
+        ) -> Estimator:
   """Fits an estimator of the given kind.
 
   Args:
@@ -80,9 +80,9 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
     gp: for LSGP, the Gaussian process's settings (`calibrate.parts.gp.GPConfig`; None: its
       defaults).
     deep: for MLP, the perceptron's settings (`calibrate.parts.deep.DeepConfig`; None: its
-      defaults). layers: its hidden layers, e.g. (64, 64); None: chosen among
-      `deep.GRID` (one or two layers, 16 to 128 units) on the held-out groups when there
-      are folds, else `deep`'s.
+      defaults). layers: its hidden layers, e.g. (64, 64), and activation: its units,
+      "relu" or "tanh"; each None: chosen on the held-out groups when there are folds
+      (the layers among `deep.GRID`, then the units at them), else `deep`'s.
     folds: with `groups`, grouped K-fold cross-validation of the whole fit (K more fits):
       its held-out residuals size the estimator's interval (`Info.half_width`) and its
       RMSE per output is kept; an LSANN output whose network does not beat its LS stage
@@ -94,7 +94,7 @@ def fit(kind: Kind, counts: np.ndarray, forces: np.ndarray, *,
       snapshots=snapshots, val_block=val_block, ensemble=ensemble, inputs=inputs,
       outputs=outputs, input_units=input_units, output_units=output_units, groups=groups,
       folds=folds, cross=cross, ridge=ridge, widths=widths, net_inputs=net_inputs, gp=gp,
-      deep=deep, layers=layers)
+      deep=deep, layers=layers, activation=activation)
 
 
 def fit_auto(counts: np.ndarray, forces: np.ndarray, groups: splits.Groups,

@@ -261,13 +261,16 @@ def _auto(counts, forces):
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 @pytest.mark.parametrize("kind, ensemble, cross", [("AUTO", 1, False),
     ("LS", 1, False), ("POLY", 1, False), ("POLY", 1, True), ("LSANN", 1, False),
-    ("NN", 2, False), ("LSANN", 3, False), ("MLP", 2, False)])
+    ("NN", 2, False), ("LSANN", 3, False), ("MLP", 2, False), ("MLP-relu", 1, False)])
 @pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
 def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cross):
+  from calibrate.parts import deep
   counts, forces = _data()
+  kind, _, activation = kind.partition("-")  # MLP-relu: the perceptron of ReLU units
+  units = {"deep": deep.DeepConfig(activation=activation)} if activation else {}
   est = _auto(counts, forces) if kind == "AUTO" else estimators.fit(
       kind, counts, forces, config=FAST, ensemble=ensemble, seed=1, cross=cross,
-      ridge=1e-6 if cross else None)
+      ridge=1e-6 if cross else None, **units)
   report = cexport.write(est, tmp_path)
   # past the training range too: the cross-term polynomial's tangent plane out there
   test = np.random.default_rng(9).integers(300, 3900, (300, 6))
@@ -278,7 +281,9 @@ def test_the_c_estimator_agrees_with_the_python_one(tmp_path, kind, ensemble, cr
   assert np.max(np.abs(c_out - want) / scale) < 1e-5
   assert report.multiply_adds > 0 and report.flash_bytes >= 4 * est.n_inputs
   if kind != "AUTO":  # AUTO's parts are whichever won
-    assert report.tanh == (0 if kind in ("LS", "POLY") else 128 * ensemble if kind == "MLP"
+    # the perceptron's 64 x 64 units: tanhf each where they are tanh, none where ReLU
+    assert report.tanh == (0 if kind in ("LS", "POLY") else
+                           (0 if activation == "relu" else 128 * ensemble) if kind == "MLP"
                            else 6 * ensemble)
   if kind == "LSANN" and ensemble > 1:  # the shared linear stage once
     assert (tmp_path / "estimator.c").read_text().count("_LIN_COEF[") == 2

@@ -19,17 +19,38 @@ def _smooth(n=3000, seed=0):
   return z * 1000 + 2000, y
 
 
-def test_the_forward_pass_is_tanh_layers_of_its_weights():
+UNITS = {"tanh": np.tanh, "relu": lambda v: np.maximum(v, 0.0)}
+
+
+@pytest.mark.parametrize("activation", sorted(UNITS))
+def test_the_forward_pass_is_its_units_layers_of_its_weights(activation):
   rng = np.random.default_rng(1)
   w = (rng.normal(size=(5, 3)), rng.normal(size=(4, 5)), rng.normal(size=(2, 4)))
   b = tuple(rng.normal(size=len(m)) for m in w)
   net = deep.Deep(w, b, np.array([1.0, 2, 3]), np.array([2.0, 1, 4]), np.array([5.0, -1]),
-                  np.array([3.0, 0.5]))
+                  np.array([3.0, 0.5]), activation)
   x = rng.normal(size=(20, 3))
-  h = np.tanh(((x - [1, 2, 3]) / [2, 1, 4]) @ w[0].T + b[0])
-  h = np.tanh(h @ w[1].T + b[1])
+  unit = UNITS[activation]
+  h = unit(((x - [1, 2, 3]) / [2, 1, 4]) @ w[0].T + b[0])
+  h = unit(h @ w[1].T + b[1])
   want = (h @ w[2].T + b[2]) * [3.0, 0.5] + [5.0, -1]
   np.testing.assert_allclose(net.predict(x), want, rtol=1e-12)
+
+
+def test_a_file_without_an_activation_holds_tanh_units_and_an_unknown_one_is_refused():
+  """Files written before the choice of units hold tanh networks; their spec names none."""
+  rng = np.random.default_rng(2)
+  arrays = {"w0": rng.normal(size=(4, 3)), "b0": rng.normal(size=4),
+            "w1": rng.normal(size=(2, 4)), "b1": rng.normal(size=2),
+            "x_mean": np.zeros(3), "x_sd": np.ones(3), "y_mean": np.zeros(2), "y_sd": np.ones(2)}
+  old = deep.Deep.from_leaves({"layers": 2}, arrays)
+  assert old.activation == "tanh"
+  x = rng.normal(size=(7, 3))
+  np.testing.assert_allclose(old.predict(x), np.tanh(x @ arrays["w0"].T + arrays["b0"])
+                             @ arrays["w1"].T + arrays["b1"], rtol=1e-12)
+  assert deep.Deep.from_leaves(*old.leaves()[::-1]).activation == "tanh"
+  with pytest.raises(ValueError, match="activation 'sigmoid'"):
+    deep.Deep.from_leaves({"layers": 2, "activation": "sigmoid"}, arrays)
 
 
 def test_adamw_learns_what_ls_cannot_on_held_out_data():
@@ -52,10 +73,21 @@ def test_the_layers_kept_are_those_of_the_lowest_held_out_error(tmp_path):
   table = est.info.settings["layers_cv"]
   assert set(table) == {"x".join(map(str, g)) for g in deep.GRID}
   assert "x".join(map(str, est.info.settings["deep"]["layers"])) == min(table, key=table.get)
+  # then the units at those layers: the lower held-out error of the two, the layers' own
+  # score for the units they were chosen with
+  units = est.info.settings["activation_cv"]
+  assert set(units) == set(deep.ACTIVATIONS)
+  assert units[deep.DeepConfig().activation] == min(table.values())
+  assert est.info.settings["deep"]["activation"] == min(units, key=units.get)
   est.save(tmp_path / "m.npz")
   back = estimators.Estimator.load(tmp_path / "m.npz")
   assert back.kind is estimators.Kind.MLP
   np.testing.assert_array_equal(back.predict(x), est.predict(x))
+  for activation in deep.ACTIVATIONS:  # given, nothing is chosen
+    given = estimators.fit("MLP", x, y, groups=groups, folds=2, seed=0, layers=(16,),
+                           activation=activation, deep=deep.DeepConfig(epochs=2))
+    assert given.info.settings["deep"]["activation"] == activation
+    assert "activation_cv" not in given.info.settings and "layers_cv" not in given.info.settings
 
 
 def test_a_layer_setting_out_of_range_is_named():
@@ -63,6 +95,8 @@ def test_a_layer_setting_out_of_range_is_named():
     deep.DeepConfig(layers=(8, 8, 8)).validate()
   with pytest.raises(Exception, match="learning_rate"):
     deep.DeepConfig(learning_rate=2.0).validate()
+  with pytest.raises(Exception, match="activation='sigmoid' is unknown: allowed 'relu', 'tanh'"):
+    deep.DeepConfig(activation="sigmoid").validate()
 
 
 def test_fit_says_when_the_size_kept_is_the_largest_tried():
@@ -70,3 +104,26 @@ def test_fit_says_when_the_size_kept_is_the_largest_tried():
   table = {"16": 0.3, "64x64": 0.2, "128x128": 0.1}
   assert "largest size tried" in fit.grid_line("perceptron layers", "128x128", table)
   assert "largest" not in fit.grid_line("perceptron layers", "64x64", table)
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_the_command_chooses_the_units_or_takes_them_given(tmp_path, capsys):
+  from calibrate import __main__ as cli, csvfile
+  x, y = _smooth(600)
+  names = [f"s{k}" for k in range(6)] + ["Fx", "Fy", "Fz"]
+  for g in range(4):
+    rows = slice(150 * g, 150 * (g + 1))
+    csvfile.write(tmp_path / f"run{g}.csv", names, np.column_stack([x[rows], y[rows]]))
+  data = ["fit", "--csv", str(tmp_path / "run*.csv"), "--inputs", "s*", "--targets",
+          "Fx,Fy,Fz", "--method", "mlp", "--layers", "8", "--epochs", "3", "--folds", "2",
+          "--no-progress"]
+  assert cli.main(data + ["--out", str(tmp_path / "a.npz")]) == 0
+  said = capsys.readouterr().out
+  chosen = estimators.Estimator.load(tmp_path / "a.npz").info.settings
+  assert f"perceptron units {chosen['deep']['activation']} at those layers" in said
+  assert all(f"{a}: " in said for a in deep.ACTIVATIONS)
+  assert cli.main(data + ["--activation", "relu", "--out", str(tmp_path / "b.npz")]) == 0
+  assert "perceptron units" not in capsys.readouterr().out
+  given = estimators.Estimator.load(tmp_path / "b.npz")
+  assert given.info.settings["deep"]["activation"] == "relu"
+  assert given.root.residual.activation == "relu"

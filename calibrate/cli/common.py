@@ -138,6 +138,9 @@ def training_args(p: argparse.ArgumentParser) -> None:
                  help="mlp (also within auto): the perceptron's hidden layers, e.g. 64,64; "
                       "default auto: one or two layers of 16 to 128 units, chosen on held-out "
                       "groups")
+  p.add_argument("--activation", choices=("auto", "relu", "tanh"), default=None,
+                 help="mlp (also within auto): the perceptron's units; default auto: relu "
+                      "(scikit-learn's) or tanh, chosen on held-out groups at the layers kept")
   p.add_argument("--weight-decay", type=float, default=None,
                  help="networks: the penalty lambda |w|^2 on the (scaled) weights, for data "
                       "with few distinct load states (default 0, trainlm's); mlp: AdamW's "
@@ -216,7 +219,8 @@ def deep_options(args) -> dict:
            if v is not None}
   config = deep.DeepConfig(**given)
   config.validate()
-  return {"deep": config, "layers": None if args.layers in (None, "auto") else args.layers}
+  return {"deep": config, "layers": None if args.layers in (None, "auto") else args.layers,
+          "activation": None if args.activation in (None, "auto") else args.activation}
 
 
 def layers(text: str):

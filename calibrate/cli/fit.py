@@ -110,6 +110,10 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
        "x".join(map(str, info.settings.get("deep", {}).get("layers", ()))))):
     if key in info.settings:
       print(grid_line(what, chosen, info.settings[key]))
+  if "activation_cv" in info.settings:
+    print(f"perceptron units {info.settings['deep']['activation']} at those layers "
+          f"(held-out error, each output's MSE over its variance: " + ", ".join(
+              f"{a}: {v:.3g}" for a, v in info.settings["activation_cv"].items()) + ")")
   if info.settings.get("cross"):
     print(poly_lines(info.settings))
   if v:

@@ -1,5 +1,5 @@
-"""A multilayer perceptron of one or two tanh hidden layers trained by AdamW, what users
-reach for in a few lines (scikit-learn's `MLPRegressor(64, 64)`, early stopping).
+"""A multilayer perceptron of one or two hidden layers (ReLU or tanh units) trained by AdamW,
+what users reach for in a few lines (scikit-learn's `MLPRegressor(64, 64)`, early stopping).
 
 The paper's network (`calibrate.parts.mlp`: one layer of 10, Levenberg-Marquardt) forms
 J^T J, whose size grows with the square of the weights: at 64x64 (4,800 weights) that is
@@ -32,6 +32,7 @@ from util import errors
 # the layer sizes grouped cross-validation chooses among (`methods.choose`): one or two
 # hidden layers of 16 to 128 units, scikit-learn's default (100,) and the (64, 64) users write
 GRID = ((16,), (64,), (32, 32), (64, 64), (128, 128))
+ACTIVATIONS = ("relu", "tanh")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -48,6 +49,9 @@ class DeepConfig:
     epochs: the cap on checks (300: 15,000 steps).
     patience: checks without a better held-out error that stop training (10, scikit-learn's
       n_iter_no_change).
+    activation: the hidden units' function: "tanh" (smooth, saturating) or "relu"
+      (max(0, v), scikit-learn's default: planes by region, continued as planes past the
+      data); `calibrate.estimators.fit` chooses between them on held-out groups.
   """
   layers: tuple = (64, 64)
   learning_rate: float = 1e-3
@@ -56,9 +60,13 @@ class DeepConfig:
   steps: int = 50
   epochs: int = 300
   patience: int = 10
+  activation: str = "tanh"
 
   def validate(self) -> None:
     """Raises SettingError naming the first setting out of range."""
+    if self.activation not in ACTIVATIONS:
+      raise errors.SettingError(f"activation={self.activation!r} is unknown: allowed "
+                                f"{', '.join(repr(a) for a in ACTIVATIONS)}")
     if not (1 <= len(self.layers) <= 2 and all(isinstance(w, (int, np.integer)) and
                                                1 <= w <= 512 for w in self.layers)):
       raise errors.SettingError(f"layers={self.layers!r} is out of range: one or two hidden "
@@ -77,14 +85,15 @@ class DeepConfig:
 
 @dataclasses.dataclass(frozen=True)
 class Deep(Part):
-  """A fitted perceptron: (weights (out, in), biases (out,)) per layer, tanh between them,
-  and the inputs' and outputs' standardisation (mean, sd per column)."""
+  """A fitted perceptron: (weights (out, in), biases (out,)) per layer, `activation` between
+  them, and the inputs' and outputs' standardisation (mean, sd per column)."""
   weights: tuple
   biases: tuple
   x_mean: np.ndarray
   x_sd: np.ndarray
   y_mean: np.ndarray
   y_sd: np.ndarray
+  activation: str = "tanh"  # files written before 2026-12-03 hold tanh networks
 
   NAME, C_TAG, LABEL = "deep", "MLP", "MLP"
   RESIDUAL_LABEL = "MLP"  # LS plus this network on its residual
@@ -92,7 +101,8 @@ class Deep(Part):
   @float64
   def predict(self, x: np.ndarray) -> np.ndarray:
     x = linear.check_array(x, "inputs", self.n_inputs)
-    s = _forward(tuple(zip(self.weights, self.biases)), jnp.asarray((x - self.x_mean) / self.x_sd))
+    s = _forward(tuple(zip(self.weights, self.biases)), jnp.asarray((x - self.x_mean) / self.x_sd),
+                 self.activation)
     return np.asarray(s) * self.y_sd + self.y_mean
 
   @property
@@ -117,7 +127,7 @@ class Deep(Part):
               "y_sd": self.y_sd}
     for k, (w, b) in enumerate(zip(self.weights, self.biases)):
       arrays[f"w{k}"], arrays[f"b{k}"] = w, b
-    return arrays, {"layers": len(self.weights)}
+    return arrays, {"layers": len(self.weights), "activation": self.activation}
 
   @classmethod
   def from_leaves(cls, spec, arrays, children=None) -> "Deep":
@@ -132,20 +142,25 @@ class Deep(Part):
       if k:
         want[f"w{k}"] = (shapes[k][0], shapes[k - 1][0])
     check_shapes("perceptron", arrays, want)
+    activation = spec.get("activation", "tanh")
+    if activation not in ACTIVATIONS:
+      raise ValueError(f"its activation {activation!r} is not one of {ACTIVATIONS}")
     return cls(tuple(arrays[f"w{k}"] for k in range(n)),
                tuple(arrays[f"b{k}"] for k in range(n)), arrays["x_mean"], arrays["x_sd"],
-               arrays["y_mean"], arrays["y_sd"])
+               arrays["y_mean"], arrays["y_sd"], activation)
 
   def emit_c(self, em, tag: str, c: int, acc: str = "acc") -> None:
-    """Standardisation, the tanh layers, the linear output, added to acc[]."""
+    """Standardisation, the hidden layers (tanh or ReLU), the linear output, added to acc[]."""
     c = self.n_inputs
     sizes = [c] + [w.shape[0] for w in self.weights]
     xm, xi = em.array(f"{tag}_XMEAN", self.x_mean), em.array(f"{tag}_XINV", 1.0 / self.x_sd)
     ym, ys = em.array(f"{tag}_YMEAN", self.y_mean), em.array(f"{tag}_YSD", self.y_sd)
     hidden = sizes[1:-1]
     em.costs(macs=sum(m * n + n for m, n in zip(sizes[:-1], sizes[1:])) + c + sizes[-1],
-             tanh=sum(hidden), stack=4 * (c + 2 * max(hidden)))
-    code = ["  { /* perceptron: standardise, tanh layers, linear output */",
+             tanh=sum(hidden) if self.activation == "tanh" else 0,
+             stack=4 * (c + 2 * max(hidden)))
+    unit = {"tanh": "tanhf(v)", "relu": "v > 0.0f ? v : 0.0f"}[self.activation]
+    code = [f"  {{ /* perceptron: standardise, {self.activation} layers, linear output */",
             f"    float h0[{max(sizes[:-1])}], h1[{max(sizes[:-1])}];",
             f"    for (int i = 0; i < {c}; ++i) h0[i] = (x[i] - {xm}[i]) * {xi}[i];"]
     src, dst = "h0", "h1"
@@ -156,22 +171,23 @@ class Deep(Part):
                f"      float v = {b}[j];",
                f"      for (int i = 0; i < {m}; ++i) v += {w}[j * {m} + i] * {src}[i];",
                f"      {acc}[j] += v * {ys}[j] + {ym}[j];" if last else
-               f"      {dst}[j] = tanhf(v);",
+               f"      {dst}[j] = {unit};",
                "    }"]
       src, dst = dst, src
     em.code += code + ["  }"]
 
 
-def _forward(params, x):
+def _forward(params, x, activation: str):
+  unit = jax.nn.relu if activation == "relu" else jnp.tanh
   h = x
   for w, b in params[:-1]:
-    h = jnp.tanh(h @ w.T + b)
+    h = unit(h @ w.T + b)
   w, b = params[-1]
   return h @ w.T + b
 
 
 def _init(key, sizes):
-  """Glorot-uniform weights (scikit-learn's for tanh), zero biases."""
+  """Glorot-uniform weights (scikit-learn's for tanh and ReLU alike), zero biases."""
   params = []
   for m, n in zip(sizes[:-1], sizes[1:]):
     key, k = jax.random.split(key)
@@ -190,7 +206,7 @@ def _epoch_fn(config: DeepConfig):
   lr, wd = config.learning_rate, config.weight_decay
 
   def loss(params, xb, yb):
-    return jnp.mean((_forward(params, xb) - yb) ** 2)
+    return jnp.mean((_forward(params, xb, config.activation) - yb) ** 2)
 
   grad = jax.grad(loss)
 
@@ -214,10 +230,11 @@ def _epoch_fn(config: DeepConfig):
   return jax.jit(epoch)
 
 
-@jax.jit
-def _mse(params, x, y, mask):
+@functools.partial(jax.jit, static_argnums=(4,))
+def _mse(params, x, y, mask, activation: str):
   """(A,) the mean squared error per output over the rows where `mask` is 1."""
-  return jnp.sum(((_forward(params, x) - y) ** 2) * mask[:, None], axis=0) / jnp.sum(mask)
+  return jnp.sum(((_forward(params, x, activation) - y) ** 2) * mask[:, None], axis=0) / \
+      jnp.sum(mask)
 
 
 def _padded(a: np.ndarray) -> np.ndarray:
@@ -254,7 +271,7 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   state = epoch(state, keys[0], xs, ys, len(x))  # compiles
   compile_s = time.perf_counter() - t0
   # held-out MSE per output in standardised units: the checks compare their sum (scale-free)
-  val = [np.asarray(_mse(p, xv, yv, mask)) for p in (params, state[0])]
+  val = [np.asarray(_mse(p, xv, yv, mask, config.activation)) for p in (params, state[0])]
   best, best_k, stop = state[0], 1, Stop.MAX_EPOCHS
   t0 = time.perf_counter()
   for k in range(1, config.epochs):
@@ -262,14 +279,14 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
       stop = Stop.VALIDATION
       break
     state = epoch(state, keys[k], xs, ys, len(x))
-    val.append(np.asarray(_mse(state[0], xv, yv, mask)))
+    val.append(np.asarray(_mse(state[0], xv, yv, mask, config.activation)))
     if not np.isfinite(val[-1]).all():
       raise errors.DataError("the perceptron's training diverged (held-out error not finite): "
                              "lower its learning rate")
     if val[-1].sum() < val[best_k].sum():
       best, best_k = state[0], k + 1
   net = Deep(tuple(np.asarray(w) for w, _ in best), tuple(np.asarray(b) for _, b in best),
-             x_mean, x_sd, y_mean, y_sd)
+             x_mean, x_sd, y_mean, y_sd, config.activation)
   val_mse = np.mean(np.array(val) * y_sd ** 2, axis=1)
   return TrainResult(net, len(val) - 1, stop, np.full_like(val_mse, np.nan), val_mse,
                      time.perf_counter() - t0, compile_s, best_k)
