@@ -229,16 +229,19 @@ def cross_validate(recipe, x, y, groups: splits.Groups, folds: int, val: Validat
   return residual, only, stats, beyond
 
 
-def choose(candidates: dict, x, y, groups, folds, val, seed, plane=False):
+def choose(candidates: dict, x, y, groups, folds, val, seed, plane=False, done=None):
   """(the recipe of lowest held-out error among `candidates` {label: recipe}, its
   cross-validation, table {label: held-out error}); the error sums each output's held-out
-  MSE over its variance; `plane` as `cross_validate` takes it."""
+  MSE over its variance; `plane` as `cross_validate` takes it. `done` {label: (recipe, its
+  cross-validation)}: candidates cross-validated before, first in the table (a tie keeps
+  them)."""
   spread = np.var(y, axis=0)
   spread = np.where(spread > 0, spread, 1.0)
-  runs, table = {}, {}
+  runs, table = dict(done or {}), {}
   for label, cand in candidates.items():
     runs[label] = (cand, cross_validate(cand, x, y, groups, folds, val, seed, plane))
-    table[label] = float(np.sum(np.square(runs[label][1][2]["cv_rmse"]) / spread))
+  for label, (_, run) in runs.items():
+    table[label] = float(np.sum(np.square(run[2]["cv_rmse"]) / spread))
   best = select.lowest(table)
   return runs[best][0], runs[best][1], table
 
@@ -516,19 +519,14 @@ def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settin
     one = dataclasses.replace(how, ensemble=1)
     chosen, cv, table = (one, None, {}) if layers is not None else choose(
         layer_grid(one, deep.GRID), x, y, groups, folds, val, seed, plane)
-    if activation is None:  # the other units at the layers kept
+    if activation is None:  # then the units at the layers kept (a tie keeps the first's)
+      kept = chosen.config.activation
       units = {a: dataclasses.replace(chosen, config=dataclasses.replace(chosen.config,
                                                                          activation=a))
-               for a in deep.ACTIVATIONS if a != chosen.config.activation}
-      other, other_cv, scores = choose(units, x, y, groups, folds, val, seed, plane)
-      kept = chosen.config.activation
-      if table:
-        scores[kept] = table[select.lowest(table)]
-      else:
-        _, cv, mine = choose({kept: chosen}, x, y, groups, folds, val, seed, plane)
-        scores[kept] = mine[kept]
-      if scores[other.config.activation] < scores[kept]:
-        chosen, cv = other, other_cv
+               for a in (kept,) + tuple(a for a in deep.ACTIVATIONS if a != kept)
+               if a != kept or cv is None}
+      chosen, cv, scores = choose(units, x, y, groups, folds, val, seed, plane,
+                                  done=None if cv is None else {kept: (chosen, cv)})
       settings["activation_cv"] = {a: scores[a] for a in deep.ACTIVATIONS}
     how = dataclasses.replace(chosen, ensemble=how.ensemble)
     cv = cv if how.ensemble == 1 else None

@@ -111,9 +111,8 @@ def report(est, table, args, y: np.ndarray, groups) -> None:
     if key in info.settings:
       print(grid_line(what, chosen, info.settings[key]))
   if "activation_cv" in info.settings:
-    print(f"perceptron units {info.settings['deep']['activation']} at those layers "
-          f"(held-out error, each output's MSE over its variance: " + ", ".join(
-              f"{a}: {v:.3g}" for a, v in info.settings["activation_cv"].items()) + ")")
+    print(grid_line("perceptron units", f"{info.settings['deep']['activation']} at those "
+                    f"layers", info.settings["activation_cv"], sizes=False))
   if info.settings.get("cross"):
     print(poly_lines(info.settings))
   if v:
@@ -201,12 +200,12 @@ def training_lines(est, args, groups) -> None:
           f"chose when to stop")
 
 
-def grid_line(what: str, chosen: str, table: dict) -> str:
-  """The size chosen on held-out groups, every size's error, and whether it is the grid's
-  largest (a larger one might do better: said, not tried)."""
+def grid_line(what: str, chosen: str, table: dict, sizes: bool = True) -> str:
+  """The choice made on held-out groups, every option's error, and for `sizes` whether it is
+  the grid's largest (a larger one might do better: said, not tried)."""
   text = (f"{what} {chosen} (held-out error, each output's MSE over its variance: "
           + ", ".join(f"{w}: {v:.3g}" for w, v in table.items()) + ")")
-  if chosen == list(table)[-1] and len(table) > 1:
+  if sizes and chosen == list(table)[-1] and len(table) > 1:
     text += "\n  the largest size tried: a larger one might do better still"
   return text
 
