@@ -554,12 +554,13 @@ def combine(members):
 # options that make it this candidate. Where several hold out within a standard error the
 # first is kept, so the order decides ties, and past the folds' box it decides how the pick
 # extrapolates: each channel's cube fades to LS's plane there, POLY with cross terms
-# continues as itself. Measured (`real_recordings --quick`, auto / best baseline), POLY
-# before POLY-CH: the footpad's Y 0.81 to 0.51 (seeds 0-4; its 1.5 mm test presses follow
-# POLY's degree 2, at seed 0 NRMSE past the box 3.0 % against the faded cube's 6.7 %), but the
-# printed F/T sensor's Fy 1.13 to 1.18 (3 draws, its default split), shell_static's the
-# same (seeds 1-4); the one-standard-error rule itself against the lowest held-out error
-# (footpad Z 0.92 to 2.12, the F/T sensor's Fz 1.13 to 2.34) or a 1 % tie (its Fy 1.47)
+# continues along its own tangent plane. Measured (`real_recordings --quick`, auto / best
+# baseline), POLY before POLY-CH: the footpad's Y 0.81 to 0.51 (seeds 0-4; its 1.5 mm test
+# presses follow POLY's degree 2, at seed 0 NRMSE past the box 3.0 % against the faded
+# cube's 6.7 %), but the printed F/T sensor's Fy 1.13 to 1.18 (3 draws, its default split),
+# shell_static's the same (seeds 1-4); the one-standard-error rule itself against the
+# lowest held-out error (footpad Z 0.92 to 2.12, the F/T sensor's Fz 1.13 to 2.34) or a
+# 1 % tie (its Fy 1.47)
 AUTO = {
     "LS": (Kind.LS, {}),
     "POLY-CH": (Kind.POLY, {"cross": False}),  # each channel's powers: the shell paper's
