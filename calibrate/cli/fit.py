@@ -167,14 +167,21 @@ def interval_lines(info, level: float, scale: np.ndarray, units) -> None:
 def training_lines(est, args, groups) -> None:
   """How the networks' training stopped, and what their early-stopping hold-out was for."""
   stops = [m.training for m in (est.members or (est,)) if m.training is not None]
+  deep = est.info.settings.get("deep") if est.kind.value == "MLP" else None
+  if deep and deep.get("checks"):  # a length from the held-out groups' curve, no hold-out
+    n = len(stops)
+    print(f"training: {'each of ' + str(n) + ' networks ' if n > 1 else ''}{deep['checks']} "
+          f"checks ({deep['checks'] * deep['steps']} AdamW steps, "
+          f"{sum(t.seconds for t in stops):.1f} s{' in all' if n > 1 else ''}) on every "
+          f"sample, the length where the held-out groups' mean error was lowest")
+    return
   if len(stops) > 3:  # an ensemble: the spread, not a line per network
     why = sorted({t.stop.value for t in stops})
     epochs = np.array([t.epochs for t in stops])
     print(f"training stopped: {len(stops)} networks ({'; '.join(why)}), after "
           f"{epochs.min()}-{epochs.max()} epochs (median {np.median(epochs):.0f}), "
           f"{sum(t.seconds for t in stops):.1f} s in all")
-  elif stops and est.kind.value == "MLP":  # AdamW: held-out checks `steps` apart
-    deep = est.info.settings["deep"]
+  elif stops and deep:  # AdamW: held-out checks `steps` apart
     why = {"VALIDATION": f"no better held-out error in {deep['patience']} checks",
            "MAX_EPOCHS": "the cap on checks"}
     print("training stopped: " + "; ".join(

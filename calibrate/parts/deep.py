@@ -4,9 +4,12 @@ what users reach for in a few lines (scikit-learn's `MLPRegressor(64, 64)`, earl
 The paper's network (`calibrate.parts.mlp`: one layer of 10, Levenberg-Marquardt) forms
 J^T J, whose size grows with the square of the weights: at 64x64 (4,800 weights) that is
 23 M entries per step. A first-order method does not: AdamW (Loshchilov & Hutter 2019,
-decoupled weight decay) on minibatches drawn with replacement, stopped early on a held-out
-set whose error is checked every `DeepConfig.steps` steps, the weights of the best check
-kept. Inputs and outputs are standardised (mean, standard deviation).
+decoupled weight decay) on minibatches drawn with replacement, its held-out error checked
+every `DeepConfig.steps` steps. Where the data have held-out groups, `fold_curve` trains one
+network per fold in step and reads the folds' mean held-out curve: its lowest sets how many
+checks the final network trains on every sample (`DeepConfig.checks`). Without folds it
+stops early on a validation hold-out, the weights of the best check kept. Inputs and outputs
+are standardised (mean, standard deviation).
 
 Everything is float64 (JAX's 64-bit types on for the duration of a call). The training
 data are padded to the next power of two and the batches drawn from the rows in use, so
@@ -48,7 +51,10 @@ class DeepConfig:
     steps: steps between held-out checks (an "epoch" here; 50).
     epochs: the cap on checks (300: 15,000 steps).
     patience: checks without a better held-out error that stop training (10, scikit-learn's
-      n_iter_no_change).
+      n_iter_no_change), on the validation hold-out or on the folds' mean curve.
+    checks: 0 stops early on the validation hold-out; N trains exactly N checks on every
+      sample and keeps the last weights (`calibrate.methods` sets it from the held-out
+      groups' mean curve, `fold_curve`).
     activation: the hidden units' function: "tanh" (smooth, saturating) or "relu"
       (max(0, v), scikit-learn's default: planes by region, continued as planes past the
       data); `calibrate.estimators.fit` chooses between them on held-out groups.
@@ -61,6 +67,7 @@ class DeepConfig:
   epochs: int = 300
   patience: int = 10
   activation: str = "tanh"
+  checks: int = 0
 
   def validate(self) -> None:
     """Raises SettingError naming the first setting out of range."""
@@ -81,6 +88,9 @@ class DeepConfig:
       if not (isinstance(value, (int, np.integer)) and 1 <= value <= hi):
         raise errors.SettingError(f"{name}={value!r} is out of range: allowed integers 1 to "
                                   f"{hi}")
+    if not (isinstance(self.checks, (int, np.integer)) and 0 <= self.checks <= self.epochs):
+      raise errors.SettingError(f"checks={self.checks!r} is out of range: allowed integers 0 "
+                                f"to epochs ({self.epochs})")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -200,20 +210,23 @@ def _init(key, sizes):
 B1, B2, EPS = 0.9, 0.999, 1e-8  # Adam's moment decays and floor (Kingma & Ba)
 
 
-@functools.lru_cache(maxsize=None)
 def _epoch_fn(config: DeepConfig):
   """One jitted check interval: `steps` AdamW steps on batches drawn from the first n rows."""
-  lr, wd = config.learning_rate, config.weight_decay
+  return _compiled_epoch(config.learning_rate, config.weight_decay, config.batch, config.steps,
+                         config.activation)
 
+
+@functools.lru_cache(maxsize=None)
+def _compiled_epoch(lr: float, wd: float, batch: int, steps: int, activation: str):
   def loss(params, xb, yb):
-    return jnp.mean((_forward(params, xb, config.activation) - yb) ** 2)
+    return jnp.mean((_forward(params, xb, activation) - yb) ** 2)
 
   grad = jax.grad(loss)
 
   def epoch(state, key, x, y, n):
     def step(carry, k):
       params, m, v, t = carry
-      idx = jax.random.randint(k, (config.batch,), 0, n)
+      idx = jax.random.randint(k, (batch,), 0, n)
       g = grad(params, x[idx], y[idx])
       t = t + 1
       m = jax.tree_util.tree_map(lambda a, b: B1 * a + (1 - B1) * b, m, g)
@@ -224,7 +237,7 @@ def _epoch_fn(config: DeepConfig):
            b - lr * (mb / c1) / (jnp.sqrt(vb / c2) + EPS))
           for (w, b), (mw, mb), (vw, vb) in zip(params, m, v))
       return (params, m, v, t), None
-    out, _ = jax.lax.scan(step, state, jax.random.split(key, config.steps))
+    out, _ = jax.lax.scan(step, state, jax.random.split(key, steps))
     return out
 
   return jax.jit(epoch)
@@ -243,50 +256,171 @@ def _padded(a: np.ndarray) -> np.ndarray:
   return np.vstack([a, np.zeros((size - len(a), a.shape[1]))])
 
 
+@dataclasses.dataclass
+class _Run:
+  """One network's training in progress: its standardisation, padded data, AdamW state and
+  the keys of its checks (the same seed draws the same ones, however long it runs)."""
+  x_mean: np.ndarray
+  x_sd: np.ndarray
+  y_mean: np.ndarray
+  y_sd: np.ndarray
+  xs: np.ndarray
+  ys: np.ndarray
+  n: int
+  state: tuple
+  keys: jax.Array
+
+  @classmethod
+  def start(cls, x, y, config: DeepConfig, seed: int) -> "_Run":
+    x_mean, x_sd = x.mean(axis=0), x.std(axis=0)
+    y_mean, y_sd = y.mean(axis=0), y.std(axis=0)
+    x_sd, y_sd = np.where(x_sd > 0, x_sd, 1.0), np.where(y_sd > 0, y_sd, 1.0)
+    key = jax.random.PRNGKey(seed % 2 ** 32)
+    key, k0 = jax.random.split(key)
+    params = _init(k0, (x.shape[1],) + tuple(int(w) for w in config.layers) + (y.shape[1],))
+    zeros = jax.tree_util.tree_map(jnp.zeros_like, params)
+    return cls(x_mean, x_sd, y_mean, y_sd, _padded((x - x_mean) / x_sd),
+               _padded((y - y_mean) / y_sd), len(x),
+               (params, zeros, zeros, jnp.zeros((), jnp.float64)),
+               jax.random.split(key, config.epochs))
+
+  def check(self, k: int, epoch) -> None:
+    """Runs check k (0-based): `steps` AdamW steps."""
+    self.state = epoch(self.state, self.keys[k], self.xs, self.ys, self.n)
+
+  def held_out(self, x_val, y_val) -> tuple:
+    """(held-out inputs, outputs, row mask), padded and standardised: for `mse`."""
+    xv = _padded((x_val - self.x_mean) / self.x_sd)
+    mask = np.zeros(len(xv))
+    mask[:len(x_val)] = 1.0
+    return xv, _padded((y_val - self.y_mean) / self.y_sd), mask
+
+  def mse(self, params, held: tuple, activation: str) -> np.ndarray:
+    """(A,) held-out MSE per output, in standardised units."""
+    out = np.asarray(_mse(params, *held, activation))
+    if not np.isfinite(out).all():
+      raise errors.DataError("the perceptron's training diverged (held-out error not finite): "
+                             "lower its learning rate")
+    return out
+
+  def net(self, params, activation: str) -> Deep:
+    return Deep(tuple(np.asarray(w) for w, _ in params), tuple(np.asarray(b) for _, b in params),
+                self.x_mean, self.x_sd, self.y_mean, self.y_sd, activation)
+
+
+@dataclasses.dataclass(frozen=True)
+class Curve:
+  """The folds' mean held-out curve (`fold_curve`).
+
+  Attributes:
+    checks: the check of its lowest score (1-based), the length to train on every sample.
+    mse: (K + 1, A) held-out MSE per output over every fold's held-out samples, in output
+      units, after 0..K checks (row 0 the untrained networks').
+    floor: (A,) the held-out MSE of predicting zero (LS alone, where the targets are its
+      residual): an output's score never counts more than this.
+    score: (K + 1,) sum over the outputs of min(mse, floor) x `scale`.
+    runs: one TrainResult per fold, each holding its network at `checks`.
+  """
+  checks: int
+  mse: np.ndarray
+  floor: np.ndarray
+  score: np.ndarray
+  runs: tuple
+
+
+@float64
+def fold_curve(folds, config: DeepConfig = DeepConfig(), seed: int = 0,
+               scale=None) -> Curve:
+  """Trains one network per fold, all in step from the same seed, on `folds` ((x_train,
+  y_train, x_held, y_held) each), and stops when the folds' mean held-out score has not
+  improved in `patience` checks (or at `epochs`). The score sums each output's held-out MSE
+  times `scale` (A,) (None: 1), counting no output above its floor: an output the networks
+  cannot improve on is left to LS (`calibrate.select.ls_only`), so its rise does not stop
+  the others' training. Each fold's network at the lowest score is what training that fold
+  with `checks` set to it gives (the same seed draws the same batches)."""
+  config.validate()
+  folds = [(*linear.check_pair(xt, yt), np.asarray(xv, float), np.asarray(yv, float))
+           for xt, yt, xv, yv in folds]
+  if not folds or any(len(xv) == 0 for _, _, xv, _ in folds):
+    raise errors.DataError("the perceptron's held-out curve needs held-out samples in every "
+                           "fold")
+  epoch = _epoch_fn(config)
+  runs = [_Run.start(xt, yt, config, seed) for xt, yt, _, _ in folds]
+  held = [r.held_out(xv, yv) for r, (_, _, xv, yv) in zip(runs, folds)]
+  total = sum(len(xv) for _, _, xv, _ in folds)
+  scale = np.ones(folds[0][1].shape[1]) if scale is None else np.asarray(scale, float)
+  floor = sum(np.sum(yv ** 2, axis=0) for _, _, _, yv in folds) / total
+
+  def mean_mse():
+    return sum(r.mse(r.state[0], h, config.activation) * r.y_sd ** 2 * len(xv)
+               for r, h, (_, _, xv, _) in zip(runs, held, folds)) / total
+
+  curve = [mean_mse()]
+  t0 = time.perf_counter()
+  for r in runs:
+    r.check(0, epoch)  # the first compiles (folds of one size class share it)
+  compile_s = time.perf_counter() - t0
+  curve.append(mean_mse())
+  score = [float(np.sum(np.minimum(c, floor) * scale)) for c in curve]
+  best_k, best = 1, [r.state[0] for r in runs]
+  t0 = time.perf_counter()
+  for k in range(1, config.epochs):
+    if k - best_k >= config.patience:
+      break
+    for r in runs:
+      r.check(k, epoch)
+    curve.append(mean_mse())
+    score.append(float(np.sum(np.minimum(curve[-1], floor) * scale)))
+    if score[-1] < score[best_k]:
+      best_k, best = k + 1, [r.state[0] for r in runs]
+  seconds = (time.perf_counter() - t0) / len(runs)
+  mse = np.array(curve)
+  stop = Stop.VALIDATION if len(curve) - 1 < config.epochs else Stop.MAX_EPOCHS
+  return Curve(best_k, mse, floor, np.array(score), tuple(
+      TrainResult(r.net(p, config.activation), len(curve) - 1, stop,
+                  np.full(len(curve), np.nan), np.mean(mse, axis=1), seconds,
+                  compile_s / len(runs), best_k) for r, p in zip(runs, best)))
+
+
 @float64
 def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
           config: DeepConfig = DeepConfig(), seed: int = 0) -> TrainResult:
-  """Trains on (x, y) (N, C), (N, A), stopping on the held-out (x_val, y_val); the weights of
-  the check with the lowest held-out MSE are kept."""
+  """Trains on (x, y) (N, C), (N, A). With `config.checks` 0 it stops on the held-out
+  (x_val, y_val), keeping the weights of the check with the lowest held-out MSE; with N it
+  trains exactly N checks and keeps the last weights, (x_val, y_val) unused (may be empty)."""
   config.validate()
   x, y = linear.check_pair(x, y)
-  if len(x_val) == 0:
+  if len(x_val) == 0 and not config.checks:
     raise errors.DataError("the perceptron's early stopping needs held-out samples")
-  x_mean, x_sd = x.mean(axis=0), x.std(axis=0)
-  x_sd = np.where(x_sd > 0, x_sd, 1.0)
-  y_mean, y_sd = y.mean(axis=0), y.std(axis=0)
-  y_sd = np.where(y_sd > 0, y_sd, 1.0)
-  xs, ys = _padded((x - x_mean) / x_sd), _padded((y - y_mean) / y_sd)
-  xv, yv = _padded((x_val - x_mean) / x_sd), _padded((y_val - y_mean) / y_sd)
-  mask = np.zeros(len(xv))
-  mask[:len(x_val)] = 1.0
-  key = jax.random.PRNGKey(seed % 2 ** 32)
-  key, k0 = jax.random.split(key)
-  params = _init(k0, (x.shape[1],) + tuple(int(w) for w in config.layers) + (y.shape[1],))
-  zeros = jax.tree_util.tree_map(jnp.zeros_like, params)
-  state = (params, zeros, zeros, jnp.zeros((), jnp.float64))
+  run = _Run.start(x, y, config, seed)
   epoch = _epoch_fn(config)
   t0 = time.perf_counter()
-  keys = jax.random.split(key, config.epochs)
-  state = epoch(state, keys[0], xs, ys, len(x))  # compiles
+  first = run.state[0]
+  run.check(0, epoch)  # compiles
   compile_s = time.perf_counter() - t0
+  if config.checks:
+    t0 = time.perf_counter()
+    for k in range(1, config.checks):
+      run.check(k, epoch)
+    jax.block_until_ready(run.state[0])
+    return TrainResult(run.net(run.state[0], config.activation), config.checks,
+                       Stop.MAX_EPOCHS, np.full(config.checks + 1, np.nan),
+                       np.full(config.checks + 1, np.nan), time.perf_counter() - t0,
+                       compile_s, config.checks)
+  held = run.held_out(x_val, y_val)
   # held-out MSE per output in standardised units: the checks compare their sum (scale-free)
-  val = [np.asarray(_mse(p, xv, yv, mask, config.activation)) for p in (params, state[0])]
-  best, best_k, stop = state[0], 1, Stop.MAX_EPOCHS
+  val = [run.mse(p, held, config.activation) for p in (first, run.state[0])]
+  best, best_k, stop = run.state[0], 1, Stop.MAX_EPOCHS
   t0 = time.perf_counter()
   for k in range(1, config.epochs):
     if k - best_k >= config.patience:
       stop = Stop.VALIDATION
       break
-    state = epoch(state, keys[k], xs, ys, len(x))
-    val.append(np.asarray(_mse(state[0], xv, yv, mask, config.activation)))
-    if not np.isfinite(val[-1]).all():
-      raise errors.DataError("the perceptron's training diverged (held-out error not finite): "
-                             "lower its learning rate")
+    run.check(k, epoch)
+    val.append(run.mse(run.state[0], held, config.activation))
     if val[-1].sum() < val[best_k].sum():
-      best, best_k = state[0], k + 1
-  net = Deep(tuple(np.asarray(w) for w, _ in best), tuple(np.asarray(b) for _, b in best),
-             x_mean, x_sd, y_mean, y_sd, config.activation)
-  val_mse = np.mean(np.array(val) * y_sd ** 2, axis=1)
-  return TrainResult(net, len(val) - 1, stop, np.full_like(val_mse, np.nan), val_mse,
-                     time.perf_counter() - t0, compile_s, best_k)
+      best, best_k = run.state[0], k + 1
+  val_mse = np.mean(np.array(val) * run.y_sd ** 2, axis=1)
+  return TrainResult(run.net(best, config.activation), len(val) - 1, stop,
+                     np.full_like(val_mse, np.nan), val_mse, time.perf_counter() - t0,
+                     compile_s, best_k)
