@@ -523,6 +523,9 @@ def _deep_layers(how: DeepRecipe, layers, x, y, groups, folds, val, seed, settin
                                         tuple(int(w) for w in layers)),
                              ("activation", activation)) if v is not None}
   how = dataclasses.replace(how, config=dataclasses.replace(how.config, **given))
+  if how.config.checks and not folds:
+    raise errors.SettingError(f"checks={how.config.checks} trains on every sample, holding "
+                              f"nothing out: it needs folds >= 2 for the held-out spread")
   cv = None
   if folds:
     one = dataclasses.replace(how, ensemble=1)

@@ -90,6 +90,51 @@ def test_the_layers_kept_are_those_of_the_lowest_held_out_error(tmp_path):
     assert "activation_cv" not in given.info.settings and "layers_cv" not in given.info.settings
 
 
+def test_the_folds_curve_is_their_held_out_error_and_its_lowest_what_training_that_long_gives():
+  """Each fold's network at the curve's lowest is the one trained exactly that many checks
+  from the same seed; the curve is the folds' held-out MSE, recomputed from predictions."""
+  import dataclasses
+  x, y = _smooth(1200)
+  folds = [(x[:800], y[:800], x[800:], y[800:]), (x[400:], y[400:], x[:400], y[:400])]
+  cfg = deep.DeepConfig(layers=(16,), epochs=25, patience=4)
+  scale = 1.0 / np.var(y, axis=0)
+  curve = deep.fold_curve(folds, cfg, seed=2, scale=scale)
+  n = curve.checks
+  np.testing.assert_allclose(curve.floor, np.mean(np.vstack([f[3] for f in folds]) ** 2, axis=0))
+  np.testing.assert_allclose(curve.score, np.sum(np.minimum(curve.mse, curve.floor) * scale,
+                                                 axis=1))
+  assert n == 1 + int(np.argmin(curve.score[1:]))
+  ran = len(curve.score) - 1
+  assert ran == cfg.epochs or ran - n == cfg.patience
+  sse = 0.0
+  for (xt, yt, xv, yv), run in zip(folds, curve.runs):
+    again = deep.train(xt, yt, xv[:0], yv[:0], dataclasses.replace(cfg, checks=n), seed=2)
+    np.testing.assert_array_equal(again.net.predict(xv), run.net.predict(xv))
+    sse = sse + np.sum((run.net.predict(xv) - yv) ** 2, axis=0)
+  np.testing.assert_allclose(curve.mse[n], sse / 800, rtol=1e-9)
+
+
+@pytest.mark.slow  # over ~3 s of its own on 2 cores: the inner loop leaves it out
+def test_with_folds_the_final_network_trains_the_curves_length_on_every_sample():
+  """Nothing held out of the final fit: it is the network trained `checks` on all of LS's
+  residual, and its spread is the folds' held-out one (finite)."""
+  import dataclasses
+  from calibrate.parts import linear
+  x, y = _smooth(1200)
+  groups = splits.groups(len(x), "recordings", np.repeat(np.arange(6), 200))
+  cfg = deep.DeepConfig(epochs=12, patience=4)
+  est = estimators.fit("MLP", x, y, groups=groups, folds=3, seed=0, layers=(16,),
+                       activation="tanh", deep=cfg)
+  n = est.info.settings["deep"]["checks"]
+  assert 1 <= n <= cfg.epochs
+  assert est.info.validation["ls_only"] == []
+  lin = linear.fit_linear(x, y)
+  net = deep.train(x, y - lin.predict(x), x[:0], y[:0], dataclasses.replace(
+      cfg, layers=(16,), activation="tanh", checks=n), seed=0).net
+  np.testing.assert_allclose(est.predict(x), lin.predict(x) + net.predict(x), rtol=1e-12)
+  assert np.isfinite(est.info.residual_sd).all() and (est.info.residual_sd > 0).all()
+
+
 def test_a_layer_setting_out_of_range_is_named():
   with pytest.raises(Exception, match="layers=.* one or two hidden layers"):
     deep.DeepConfig(layers=(8, 8, 8)).validate()
@@ -97,6 +142,12 @@ def test_a_layer_setting_out_of_range_is_named():
     deep.DeepConfig(learning_rate=2.0).validate()
   with pytest.raises(Exception, match="activation='sigmoid' is unknown: allowed 'relu', 'tanh'"):
     deep.DeepConfig(activation="sigmoid").validate()
+  with pytest.raises(Exception, match=r"checks=400 is out of range: allowed integers 0 to "
+                                      r"epochs \(300\)"):
+    deep.DeepConfig(checks=400).validate()
+  x, y = _smooth(300)
+  with pytest.raises(Exception, match="checks=3 trains on every sample.*needs folds >= 2"):
+    estimators.fit("MLP", x, y, deep=deep.DeepConfig(checks=3, epochs=5))
 
 
 def test_fit_says_when_the_size_kept_is_the_largest_tried():

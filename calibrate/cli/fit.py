@@ -173,7 +173,9 @@ def training_lines(est, args, groups) -> None:
     print(f"training: {'each of ' + str(n) + ' networks ' if n > 1 else ''}{deep['checks']} "
           f"checks ({deep['checks'] * deep['steps']} AdamW steps, "
           f"{sum(t.seconds for t in stops):.1f} s{' in all' if n > 1 else ''}) on every "
-          f"sample, the length where the held-out groups' mean error was lowest")
+          f"sample, the length where the held-out groups' mean error was lowest"
+          + (": the cap (--epochs), where it still fell" if deep["checks"] == deep["epochs"]
+             else ""))
     return
   if len(stops) > 3:  # an ensemble: the spread, not a line per network
     why = sorted({t.stop.value for t in stops})
