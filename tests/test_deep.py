@@ -135,6 +135,26 @@ def test_with_folds_the_final_network_trains_the_curves_length_on_every_sample()
   assert np.isfinite(est.info.residual_sd).all() and (est.info.residual_sd > 0).all()
 
 
+@pytest.mark.parametrize("checks", [0, 3])
+def test_training_whose_weights_blow_up_stops_with_a_message_not_numbers(checks, monkeypatch):
+  """Early stopped or trained a fixed length, a network whose weights became NaN is refused."""
+  import jax
+  real = deep._epoch_fn
+
+  def blows_up(config):
+    step = real(config)
+
+    def epoch(state, *args):
+      params, m, v, t = step(state, *args)
+      return jax.tree_util.tree_map(lambda a: a * np.nan, params), m, v, t
+    return epoch
+  monkeypatch.setattr(deep, "_epoch_fn", blows_up)
+  x, y = _smooth(400)
+  with pytest.raises(Exception, match="training diverged .* lower its learning rate"):
+    deep.train(x[:300], y[:300], x[300:], y[300:], deep.DeepConfig(layers=(8,), epochs=5,
+                                                                   checks=checks))
+
+
 def test_a_layer_setting_out_of_range_is_named():
   with pytest.raises(Exception, match="layers=.* one or two hidden layers"):
     deep.DeepConfig(layers=(8, 8, 8)).validate()

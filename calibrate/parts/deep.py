@@ -402,7 +402,9 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
     t0 = time.perf_counter()
     for k in range(1, config.checks):
       run.check(k, epoch)
-    jax.block_until_ready(run.state[0])
+    if not all(np.isfinite(np.asarray(a)).all() for a in jax.tree_util.tree_leaves(run.state[0])):
+      raise errors.DataError("the perceptron's training diverged (weights not finite): lower "
+                             "its learning rate")
     return TrainResult(run.net(run.state[0], config.activation), config.checks,
                        Stop.MAX_EPOCHS, np.full(config.checks + 1, np.nan),
                        np.full(config.checks + 1, np.nan), time.perf_counter() - t0,
