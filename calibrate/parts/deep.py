@@ -317,7 +317,7 @@ class Curve:
     mse: (K + 1, A) held-out MSE per output over every fold's held-out samples, in output
       units, after 0..K checks (row 0 the untrained networks').
     floor: (A,) the held-out MSE of predicting zero (LS alone, where the targets are its
-      residual): an output's score never counts more than this.
+      residual): an output's score never counts more than this (inf where not floored).
     score: (K + 1,) sum over the outputs of min(mse, floor) x `scale`.
     runs: one TrainResult per fold, each holding its network at `checks`.
   """
@@ -329,15 +329,17 @@ class Curve:
 
 
 @float64
-def fold_curve(folds, config: DeepConfig = DeepConfig(), seed: int = 0,
-               scale=None) -> Curve:
+def fold_curve(folds, config: DeepConfig = DeepConfig(), seed: int = 0, scale=None,
+               floored: bool = True) -> Curve:
   """Trains one network per fold, all in step from the same seed, on `folds` ((x_train,
   y_train, x_held, y_held) each), and stops when the folds' mean held-out score has not
   improved in `patience` checks (or at `epochs`). The score sums each output's held-out MSE
-  times `scale` (A,) (None: 1), counting no output above its floor: an output the networks
-  cannot improve on is left to LS (`calibrate.select.ls_only`), so its rise does not stop
-  the others' training. Each fold's network at the lowest score is what training that fold
-  with `checks` set to it gives (the same seed draws the same batches)."""
+  times `scale` (A,) (None: over the first fold's training variance, the network's own
+  standardisation), with `floored` counting no output above its floor: an output the
+  networks cannot improve on is left to LS (`calibrate.select.ls_only`), so its rise does
+  not stop the others' training. Each fold's network at the lowest score is what training
+  that fold with `checks` set to it gives (the same seed draws the same batches). One fold
+  unfloored is early stopping on a validation hold-out (`train`)."""
   config.validate()
   folds = [(*linear.check_pair(xt, yt), np.asarray(xv, float), np.asarray(yv, float))
            for xt, yt, xv, yv in folds]
@@ -348,8 +350,9 @@ def fold_curve(folds, config: DeepConfig = DeepConfig(), seed: int = 0,
   runs = [_Run.start(xt, yt, config, seed) for xt, yt, _, _ in folds]
   held = [r.held_out(xv, yv) for r, (_, _, xv, yv) in zip(runs, folds)]
   total = sum(len(xv) for _, _, xv, _ in folds)
-  scale = np.ones(folds[0][1].shape[1]) if scale is None else np.asarray(scale, float)
-  floor = sum(np.sum(yv ** 2, axis=0) for _, _, _, yv in folds) / total
+  scale = 1.0 / runs[0].y_sd ** 2 if scale is None else np.asarray(scale, float)
+  floor = sum(np.sum(yv ** 2, axis=0) for _, _, _, yv in folds) / total if floored else \
+      np.full(len(scale), np.inf)
 
   def mean_mse():
     return sum(r.mse(r.state[0], h, config.activation) * r.y_sd ** 2 * len(xv)
@@ -390,39 +393,22 @@ def train(x: np.ndarray, y: np.ndarray, x_val: np.ndarray, y_val: np.ndarray,
   trains exactly N checks and keeps the last weights, (x_val, y_val) unused (may be empty)."""
   config.validate()
   x, y = linear.check_pair(x, y)
-  if len(x_val) == 0 and not config.checks:
-    raise errors.DataError("the perceptron's early stopping needs held-out samples")
+  if not config.checks:  # early stopping: one fold's held-out curve, no output floored
+    if len(x_val) == 0:
+      raise errors.DataError("the perceptron's early stopping needs held-out samples")
+    return fold_curve([(x, y, x_val, y_val)], config, seed, floored=False).runs[0]
   run = _Run.start(x, y, config, seed)
   epoch = _epoch_fn(config)
   t0 = time.perf_counter()
-  first = run.state[0]
   run.check(0, epoch)  # compiles
   compile_s = time.perf_counter() - t0
-  if config.checks:
-    t0 = time.perf_counter()
-    for k in range(1, config.checks):
-      run.check(k, epoch)
-    if not all(np.isfinite(np.asarray(a)).all() for a in jax.tree_util.tree_leaves(run.state[0])):
-      raise errors.DataError("the perceptron's training diverged (weights not finite): lower "
-                             "its learning rate")
-    return TrainResult(run.net(run.state[0], config.activation), config.checks,
-                       Stop.MAX_EPOCHS, np.full(config.checks + 1, np.nan),
-                       np.full(config.checks + 1, np.nan), time.perf_counter() - t0,
-                       compile_s, config.checks)
-  held = run.held_out(x_val, y_val)
-  # held-out MSE per output in standardised units: the checks compare their sum (scale-free)
-  val = [run.mse(p, held, config.activation) for p in (first, run.state[0])]
-  best, best_k, stop = run.state[0], 1, Stop.MAX_EPOCHS
   t0 = time.perf_counter()
-  for k in range(1, config.epochs):
-    if k - best_k >= config.patience:
-      stop = Stop.VALIDATION
-      break
+  for k in range(1, config.checks):
     run.check(k, epoch)
-    val.append(run.mse(run.state[0], held, config.activation))
-    if val[-1].sum() < val[best_k].sum():
-      best, best_k = run.state[0], k + 1
-  val_mse = np.mean(np.array(val) * run.y_sd ** 2, axis=1)
-  return TrainResult(run.net(best, config.activation), len(val) - 1, stop,
-                     np.full_like(val_mse, np.nan), val_mse, time.perf_counter() - t0,
-                     compile_s, best_k)
+  if not all(np.isfinite(np.asarray(a)).all() for a in jax.tree_util.tree_leaves(run.state[0])):
+    raise errors.DataError("the perceptron's training diverged (weights not finite): lower "
+                           "its learning rate")
+  return TrainResult(run.net(run.state[0], config.activation), config.checks,
+                     Stop.MAX_EPOCHS, np.full(config.checks + 1, np.nan),
+                     np.full(config.checks + 1, np.nan), time.perf_counter() - t0,
+                     compile_s, config.checks)
