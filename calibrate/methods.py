@@ -242,8 +242,7 @@ def choose(candidates: dict, x, y, groups, folds, val, seed, plane=False, done=N
   MSE over its variance; `plane` as `cross_validate` takes it. `done` {label: (recipe, its
   cross-validation)}: candidates cross-validated before, first in the table (a tie keeps
   them)."""
-  spread = np.var(y, axis=0)
-  spread = np.where(spread > 0, spread, 1.0)
+  spread = output_variance(y)
   runs, table = dict(done or {}), {}
   for label, cand in candidates.items():
     runs[label] = (cand, cross_validate(cand, x, y, groups, folds, val, seed, plane))
@@ -251,6 +250,12 @@ def choose(candidates: dict, x, y, groups, folds, val, seed, plane=False, done=N
     table[label] = float(np.sum(np.square(run[2]["cv_rmse"]) / spread))
   best = select.lowest(table)
   return runs[best][0], runs[best][1], table
+
+
+def output_variance(y) -> np.ndarray:
+  """(A,) each output's variance (1 where it is constant): the held-out errors' weights."""
+  spread = np.var(y, axis=0)
+  return np.where(spread > 0, spread, 1.0)
 
 
 def width_grid(recipe: NetworkRecipe, choices) -> dict:
@@ -571,11 +576,9 @@ def _deep_curve(how: DeepRecipe, x, y, groups, folds, val, seed, plane) -> tuple
   from calibrate.parts import deep
   parts = splits.folds(groups, folds, seed)
   lins = [linear.fit_linear(x[tr], y[tr]) for tr, _ in parts]
-  spread = np.var(y, axis=0)
   curve = deep.fold_curve(
       [(x[tr], y[tr] - lin.predict(x[tr]), x[va], y[va] - lin.predict(x[va]))
-       for lin, (tr, va) in zip(lins, parts)], how.config, seed,
-      1.0 / np.where(spread > 0, spread, 1.0))
+       for lin, (tr, va) in zip(lins, parts)], how.config, seed, 1.0 / output_variance(y))
   how = dataclasses.replace(how, config=dataclasses.replace(how.config, checks=curve.checks))
   prefit = [Fitted((compose.Residual(lin, run.net),), (np.full(y.shape[1], np.nan),), (run,))
             for lin, run in zip(lins, curve.runs)]
